@@ -1,0 +1,82 @@
+// Every tunable of the stabilizer, with the paper's defaults (Lim et al., "Real-Time
+// Optical flow-based Video Stabilization for UAVs"). The GStreamer element's properties
+// map onto these fields one to one.
+#pragma once
+
+#include <string>
+
+namespace uavstab {
+
+enum class ModelChoice {
+    Hybrid,      // paper: rigid or similarity, re-chosen every `dwell` frames by RMS error
+    Rigid,       // 3 DOF: dx, dy, angle
+    Similarity,  // 4 DOF: dx, dy, angle, scale
+};
+
+enum class SmootherKind {
+    Box,       // paper: moving average of the accumulated trajectory
+    Gaussian,  // Gaussian-weighted average over the same window, sigma = radius / 2
+};
+
+enum class BorderMode {
+    Black,      // uncovered output pixels are black
+    Replicate,  // uncovered output pixels repeat the nearest edge pixel
+};
+
+struct StabilizerConfig {
+    // Frames held back so that the smoothing window can look ahead. With delay >=
+    // smoothing_radius the window is centred (the paper's); with delay 0 it is causal.
+    int delay = 20;
+
+    // Half-width of the smoothing window: frames i-r .. i+r where available (paper: 10).
+    int smoothing_radius = 10;
+    SmootherKind smoother = SmootherKind::Box;
+
+    // Shi-Tomasi corners tracked per frame (paper: 50; at most 200).
+    int max_corners = 50;
+    // Corners are detected only in the central `roi` fraction of width and height
+    // (paper: a reduced region of interest; edge points tend to leave the frame).
+    double roi = 0.8;
+    // Tracks are re-detected every `redetect_interval` frames (paper: 5), and sooner
+    // when fewer than half of max_corners survive.
+    int redetect_interval = 5;
+    // Forward-backward check: a track is kept when tracking it back lands within this
+    // many analysis pixels of where it started.
+    double fb_threshold = 1.0;
+
+    ModelChoice model = ModelChoice::Hybrid;
+    // Frames a hybrid model choice is kept before it is re-evaluated (paper: 20).
+    int dwell = 20;
+    // Fewer surviving points than this: no correction for the frame (identity motion,
+    // flagged as skipped).
+    int min_points = 10;
+
+    // Share of width and height hidden by zooming in, split evenly between opposite
+    // edges: zoom = 1 / (1 - crop). 0.08 hides 4 % at each edge (zoom 1.087).
+    double crop = 0.08;
+    // Shrink a correction that would show more border than the crop hides, so that
+    // the output stays covered by picture.
+    bool limit_to_crop = true;
+    BorderMode border = BorderMode::Black;
+
+    // Motion is estimated on luma downscaled to this width (full size when smaller);
+    // the motion is scaled back to full resolution.
+    int analysis_width = 640;
+
+    // Worker threads that smooth and warp; 0 = one per core.
+    int threads = 0;
+
+    // Pass frames through untouched (same delay, so toggling never reorders frames).
+    bool bypass = false;
+
+    // Throws std::invalid_argument naming the first field out of range.
+    void validate() const;
+    // Worker threads this config resolves to on this machine.
+    int resolvedThreads() const;
+};
+
+const char *toString(ModelChoice m);
+const char *toString(SmootherKind s);
+const char *toString(BorderMode b);
+
+} // namespace uavstab

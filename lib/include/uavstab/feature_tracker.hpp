@@ -1,0 +1,43 @@
+// Shi-Tomasi corners in a reduced region of interest, tracked from frame to frame with
+// pyramidal Lucas-Kanade, re-detected every few frames, and weeded by a forward-backward
+// consistency check (the paper's sections 3.1-3.2).
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "uavstab/config.hpp"
+#include "uavstab/frame_view.hpp"
+#include "uavstab/similarity.hpp"
+
+namespace uavstab {
+
+// Where the surviving tracks were in the previous frame and are in this one, in
+// full-resolution centred coordinates (see similarity.hpp).
+struct PointMatches {
+    std::vector<Point2> previous;
+    std::vector<Point2> current;
+    int detected = 0;         // tracks that entered this frame (before weeding)
+    bool redetected = false;  // corners were detected afresh on the previous frame
+    bool first = false;       // no previous frame to track from
+};
+
+class FeatureTracker {
+public:
+    explicit FeatureTracker(const StabilizerConfig &config);
+    ~FeatureTracker();
+    FeatureTracker(const FeatureTracker &) = delete;
+    FeatureTracker &operator=(const FeatureTracker &) = delete;
+
+    // Tracks features of the previous frame into `frame`. The first frame after
+    // construction or reset(), or a frame of another size, yields no matches.
+    PointMatches track(const FrameView &frame);
+    void reset();
+    void setConfig(const StabilizerConfig &config);
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+} // namespace uavstab

@@ -1,0 +1,42 @@
+// Motion estimation for one frame: tracked features -> hybrid model choice -> robust fit.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "uavstab/config.hpp"
+#include "uavstab/feature_tracker.hpp"
+#include "uavstab/hybrid_selector.hpp"
+#include "uavstab/motion_model.hpp"
+
+namespace uavstab {
+
+struct MotionEstimate {
+    // Camera motion from the previous frame to this one, as the transform taking this
+    // frame's centred coordinates to the previous frame's. A camera panning right by
+    // 5 px gives dx = +5.
+    Similarity motion;
+    MotionModel model = MotionModel::Rigid;
+    int points = 0;      // tracks that survived the forward-backward check
+    int inliers = 0;     // of those, the ones consistent with the fitted motion
+    double rms = 0.0;    // RMS residual of the inliers, full-resolution pixels
+    bool skipped = false;  // too few points or implausible motion: identity used
+    bool first = false;    // first frame of a sequence: nothing to compare with
+};
+
+class MotionEstimator {
+public:
+    explicit MotionEstimator(const StabilizerConfig &config);
+
+    MotionEstimate estimate(const FrameView &frame);
+    void reset();
+    void setConfig(const StabilizerConfig &config);
+
+private:
+    StabilizerConfig config_;
+    FeatureTracker tracker_;
+    HybridModelSelector selector_;
+    std::uint32_t frame_count_ = 0;
+};
+
+} // namespace uavstab

@@ -1,0 +1,129 @@
+// The online stabilizer: frames are pushed in, stabilized frames come back in input order.
+//
+//   push(slot) -> motion estimation (caller's thread) -> delay buffer of `delay` frames
+//   -> once frame i + delay is estimated (or on flush()) frame i's correction is final:
+//      its output is acquired (caller's thread), then a worker smooths the path and
+//      warps the frame (in stripes across the pool)
+//   -> tryPop()/waitPop() hand frames back in input order, with their slots.
+//
+// The stabilizer never pulls frames and never allocates output frames: the caller's
+// FrameSlot supplies both, and carries whatever the caller needs to get back (buffers,
+// timestamps). push/flush/reset/setConfig/markDiscontinuity belong to one thread (the
+// "control" thread); tryPop/waitPop may be called from any thread.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "uavstab/config.hpp"
+#include "uavstab/frame_stats.hpp"
+#include "uavstab/frame_view.hpp"
+#include "uavstab/motion_estimator.hpp"
+#include "uavstab/trajectory.hpp"
+
+namespace uavstab {
+
+class WorkerPool;
+
+// One frame on its way through the stabilizer, owned by it until handed back.
+class FrameSlot {
+public:
+    virtual ~FrameSlot() = default;
+    // The frame to estimate and warp. Must stay valid until the slot is handed back or
+    // destroyed (destroying the slot is how the stabilizer lets go of the frame).
+    virtual FrameView input() = 0;
+    // Called once, on the control thread, when the frame's correction is final and it is
+    // about to be warped: where to write it (the input's geometry, not overlapping it),
+    // or nullopt to get the frame back unwarped (Outcome::NoOutput).
+    virtual std::optional<FrameView> acquireOutput() = 0;
+};
+
+enum class Outcome {
+    Warped,    // the output view holds the stabilized frame
+    Bypassed,  // config.bypass: the input is the output, untouched
+    NoOutput,  // acquireOutput() gave no output
+    Failed,    // estimation or warping failed; see error. The output is not valid.
+};
+
+struct StabilizedFrame {
+    std::unique_ptr<FrameSlot> slot;
+    FrameStats stats;
+    Outcome outcome = Outcome::Warped;
+    std::string error;
+};
+
+class Stabilizer {
+public:
+    explicit Stabilizer(const StabilizerConfig &config = {});
+    // Waits for warps in flight; frames not popped are destroyed with their slots.
+    ~Stabilizer();
+    Stabilizer(const Stabilizer &) = delete;
+    Stabilizer &operator=(const Stabilizer &) = delete;
+
+    // Estimates the frame's motion and queues it. A frame of another format or size than
+    // the previous one first flushes the held frames and starts a new path.
+    // Throws std::invalid_argument for a null slot or an invalid frame view.
+    void push(std::unique_ptr<FrameSlot> slot);
+    // The next pushed frame starts a new path (scene cut, gap, discontinuity): no motion
+    // is estimated across it and no smoothing window spans it.
+    void markDiscontinuity();
+    // Finalizes every held frame (truncated smoothing window) so all can be popped.
+    void flush();
+    // Drops every held and in-flight frame (waiting for warps that have started) and
+    // starts afresh; frame indices restart at 0. Applies a changed thread count.
+    void reset();
+
+    // The next frame in input order if its warp is done, without waiting.
+    std::optional<StabilizedFrame> tryPop();
+    // Waits for the next finalized frame; nullopt at once when none is finalized
+    // (frames still in the delay buffer need more pushes or a flush()).
+    std::optional<StabilizedFrame> waitPop();
+    // Called on a worker thread (with no lock held) each time a frame becomes ready.
+    void setReadyCallback(std::function<void()> callback);
+
+    // Takes effect at the next push (delay, smoothing, estimation, framing, bypass) or at
+    // reset() (threads). Throws std::invalid_argument for an invalid config.
+    void setConfig(const StabilizerConfig &config);
+    StabilizerConfig config() const;
+
+    std::size_t heldCount() const;      // in the delay buffer
+    std::size_t finalizedCount() const; // finalized, not yet popped
+
+private:
+    struct Held;
+    struct Pending;
+
+    void finalizeOldest();
+    void startWarp(const std::shared_ptr<Pending> &pending, std::vector<Similarity> window, std::size_t centre);
+    void runStripe(const std::shared_ptr<Pending> &pending, int begin, int end);
+    void completeStripe(const std::shared_ptr<Pending> &pending);
+    StabilizedFrame take(std::unique_lock<std::mutex> &lock);
+    void waitForAllFinalized(std::unique_lock<std::mutex> &lock);
+    void applyConfig();
+
+    // Control-thread state.
+    StabilizerConfig config_;
+    MotionEstimator estimator_;
+    Trajectory trajectory_;
+    std::deque<Held> held_;
+    bool discontinuity_ = true;
+    bool have_geometry_ = false;
+    FrameView geometry_;
+
+    // Shared with workers and poppers, under mutex_.
+    mutable std::mutex mutex_;
+    std::condition_variable ready_;
+    std::deque<std::shared_ptr<Pending>> finalized_;
+    std::function<void()> ready_callback_;
+    std::optional<StabilizerConfig> next_config_;
+
+    std::unique_ptr<WorkerPool> pool_;  // last: destroyed (joined) first
+};
+
+} // namespace uavstab

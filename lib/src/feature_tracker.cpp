@@ -1,0 +1,160 @@
+#include "uavstab/feature_tracker.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include "luma_extractor.hpp"
+
+namespace uavstab {
+
+namespace {
+
+constexpr int kMaxPyramidLevel = 3;
+constexpr double kQualityLevel = 0.01;
+
+// Window and pyramid depth that fit the analysis image (tiny frames get small windows).
+struct LkGeometry {
+    cv::Size window;
+    int levels;
+};
+
+LkGeometry lkGeometry(cv::Size size)
+{
+    const int side = std::min(size.width, size.height);
+    int win = std::clamp(side / 4, 5, 21) | 1;
+    int levels = 0;
+    while (levels < kMaxPyramidLevel && (side >> (levels + 1)) >= 2 * win)
+        ++levels;
+    return {{win, win}, levels};
+}
+
+} // namespace
+
+struct FeatureTracker::Impl {
+    StabilizerConfig config;
+    LumaExtractor luma;
+    std::vector<cv::Mat> previous_pyramid, current_pyramid;
+    std::vector<cv::Point2f> tracks;  // positions in the previous frame, analysis pixels
+    std::vector<cv::Point2f> forward, backward;
+    std::vector<uchar> status_forward, status_backward;
+    std::vector<float> errors;
+    int track_age = 0;
+    bool has_previous = false;
+    int frame_width = 0, frame_height = 0;
+    cv::Size analysis;
+    LkGeometry lk{};
+
+    void detect(const cv::Mat &image);
+    Point2 toFrame(cv::Point2f p) const;
+};
+
+FeatureTracker::FeatureTracker(const StabilizerConfig &config)
+    : impl_(std::make_unique<Impl>())
+{
+    impl_->config = config;
+}
+
+FeatureTracker::~FeatureTracker() = default;
+
+void FeatureTracker::reset()
+{
+    impl_->has_previous = false;
+    impl_->tracks.clear();
+    impl_->track_age = 0;
+}
+
+void FeatureTracker::setConfig(const StabilizerConfig &config)
+{
+    const bool resample = config.analysis_width != impl_->config.analysis_width;
+    impl_->config = config;
+    if (resample)
+        reset();
+}
+
+void FeatureTracker::Impl::detect(const cv::Mat &image)
+{
+    const double margin = (1.0 - config.roi) * 0.5;
+    const cv::Rect roi(int(image.cols * margin), int(image.rows * margin),
+                       std::max(1, int(std::lround(image.cols * config.roi))),
+                       std::max(1, int(std::lround(image.rows * config.roi))));
+    const cv::Rect region = roi & cv::Rect(0, 0, image.cols, image.rows);
+    tracks.clear();
+    if (region.width < 3 || region.height < 3)
+        return;
+    // Spread the corners: about one per (region area / max_corners), but not too sparse.
+    const double spacing = std::sqrt(double(region.area()) / config.max_corners) * 0.5;
+    cv::goodFeaturesToTrack(image(region), tracks, config.max_corners, kQualityLevel,
+                            std::clamp(spacing, 2.0, 30.0));
+    for (auto &p : tracks) {
+        p.x += float(region.x);
+        p.y += float(region.y);
+    }
+    track_age = 0;
+}
+
+Point2 FeatureTracker::Impl::toFrame(cv::Point2f p) const
+{
+    // Pixel centres map through the resampling: x_full + 0.5 = (x_analysis + 0.5) * sx.
+    const double sx = double(frame_width) / analysis.width;
+    const double sy = double(frame_height) / analysis.height;
+    return {(p.x + 0.5) * sx - 0.5 - (frame_width - 1) * 0.5, (p.y + 0.5) * sy - 0.5 - (frame_height - 1) * 0.5};
+}
+
+PointMatches FeatureTracker::track(const FrameView &frame)
+{
+    Impl &d = *impl_;
+    if (frame.width != d.frame_width || frame.height != d.frame_height) {
+        reset();
+        d.frame_width = frame.width;
+        d.frame_height = frame.height;
+        d.analysis = LumaExtractor::analysisSize(frame.width, frame.height, d.config.analysis_width);
+        d.lk = lkGeometry(d.analysis);
+    }
+
+    const cv::Mat &luma = d.luma.extract(frame, d.config.analysis_width);
+    // The pyramid is built once per frame and serves the forward track into this frame
+    // and, next frame, the backward check and the track out of it. It copies the luma,
+    // so the caller's frame need not outlive this call.
+    cv::buildOpticalFlowPyramid(luma, d.current_pyramid, d.lk.window, d.lk.levels, true,
+                                cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
+
+    PointMatches matches;
+    matches.first = !d.has_previous;
+    if (d.has_previous) {
+        const std::size_t min_live = std::size_t(std::max(d.config.min_points, d.config.max_corners / 2));
+        if (d.track_age >= d.config.redetect_interval || d.tracks.size() < min_live) {
+            d.detect(d.previous_pyramid[0]);
+            matches.redetected = true;
+        }
+        matches.detected = int(d.tracks.size());
+        if (!d.tracks.empty()) {
+            const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
+            cv::calcOpticalFlowPyrLK(d.previous_pyramid, d.current_pyramid, d.tracks, d.forward,
+                                     d.status_forward, d.errors, d.lk.window, d.lk.levels, criteria);
+            cv::calcOpticalFlowPyrLK(d.current_pyramid, d.previous_pyramid, d.forward, d.backward,
+                                     d.status_backward, d.errors, d.lk.window, d.lk.levels, criteria);
+            std::vector<cv::Point2f> survivors;
+            survivors.reserve(d.tracks.size());
+            const float limit2 = float(d.config.fb_threshold * d.config.fb_threshold);
+            const cv::Rect2f inside(0.f, 0.f, float(d.analysis.width - 1), float(d.analysis.height - 1));
+            for (std::size_t i = 0; i < d.tracks.size(); ++i) {
+                const cv::Point2f e = d.backward[i] - d.tracks[i];
+                if (!d.status_forward[i] || !d.status_backward[i] || e.dot(e) > limit2 ||
+                    !inside.contains(d.forward[i]))
+                    continue;
+                matches.previous.push_back(d.toFrame(d.tracks[i]));
+                matches.current.push_back(d.toFrame(d.forward[i]));
+                survivors.push_back(d.forward[i]);
+            }
+            d.tracks.swap(survivors);
+            ++d.track_age;
+        }
+    }
+    d.has_previous = true;
+    std::swap(d.previous_pyramid, d.current_pyramid);
+    return matches;
+}
+
+} // namespace uavstab

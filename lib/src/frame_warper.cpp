@@ -1,0 +1,97 @@
+#include "uavstab/frame_warper.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "luma_extractor.hpp"
+
+namespace uavstab {
+
+namespace {
+
+// What "black" means in each plane: video-range black for YUV, opaque black for RGB.
+cv::Scalar blackFor(PixelFormat format, int plane)
+{
+    if (isYuv(format))
+        return plane == 0 ? cv::Scalar(16) : cv::Scalar(128, 128);
+    switch (format) {
+    case PixelFormat::RGBA:
+    case PixelFormat::BGRA:
+    case PixelFormat::RGBx:
+    case PixelFormat::BGRx:
+        return {0, 0, 0, 255};
+    default:
+        return {0, 0, 0, 0};
+    }
+}
+
+bool overlaps(const FrameView &a, const FrameView &b)
+{
+    for (int p = 0; p < a.planeCount(); ++p)
+        for (int q = 0; q < b.planeCount(); ++q) {
+            const auto *a0 = a.planes[p].data;
+            const auto *a1 = a0 + std::size_t(a.planes[p].stride) * a.planeHeight(p);
+            const auto *b0 = b.planes[q].data;
+            const auto *b1 = b0 + std::size_t(b.planes[q].stride) * b.planeHeight(q);
+            if (a0 < b1 && b0 < a1)
+                return true;
+        }
+    return false;
+}
+
+} // namespace
+
+void FrameWarper::planeMatrix(const FrameView &frame, int plane, const Similarity &output_to_input, double m[6])
+{
+    const auto l = output_to_input.pixelMatrix(frame.width, frame.height);
+    const PlaneLayout layout = planeLayout(frame.format, plane);
+    const double fx = layout.subsample_x, fy = layout.subsample_y;
+    // Plane pixel c sits at luma position f*c + o, o = (f-1)/2. The plane transform is
+    // S^-1 * L * S with S(c) = f*c + o.
+    const double ox = (fx - 1) * 0.5, oy = (fy - 1) * 0.5;
+    m[0] = l[0];
+    m[1] = l[1] * fy / fx;
+    m[2] = (l[0] * ox + l[1] * oy + l[2] - ox) / fx;
+    m[3] = l[3] * fx / fy;
+    m[4] = l[4];
+    m[5] = (l[3] * ox + l[4] * oy + l[5] - oy) / fy;
+}
+
+void FrameWarper::warp(const FrameView &in, const FrameView &out, const Similarity &output_to_input) const
+{
+    warpRows(in, out, output_to_input, 0, in.height);
+}
+
+void FrameWarper::warpRows(const FrameView &in, const FrameView &out, const Similarity &output_to_input,
+                           int row_begin, int row_end) const
+{
+    if (!in.valid() || !out.valid() || !in.sameGeometry(out))
+        throw std::invalid_argument("FrameWarper: input and output must be valid frames of one geometry");
+    if (overlaps(in, out))
+        throw std::invalid_argument("FrameWarper: input and output overlap");
+    row_begin = std::clamp(row_begin, 0, in.height);
+    row_end = std::clamp(row_end, row_begin, in.height);
+
+    for (int p = 0; p < in.planeCount(); ++p) {
+        const PlaneLayout layout = planeLayout(in.format, p);
+        const int y0 = row_begin / layout.subsample_y;
+        const int y1 = row_end == in.height ? in.planeHeight(p) : row_end / layout.subsample_y;
+        if (y1 <= y0)
+            continue;
+        const cv::Mat src = planeMat(in, p);
+        cv::Mat dst = planeMat(out, p).rowRange(y0, y1);
+        double m[6];
+        planeMatrix(in, p, output_to_input, m);
+        // The stripe's first row is row y0 of the plane: shift the mapping accordingly.
+        m[2] += m[1] * y0;
+        m[5] += m[4] * y0;
+        const cv::Mat matrix(2, 3, CV_64F, m);
+        const int border = border_ == BorderMode::Replicate ? cv::BORDER_REPLICATE : cv::BORDER_CONSTANT;
+        cv::warpAffine(src, dst, matrix, dst.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, border,
+                       blackFor(in.format, p));
+    }
+}
+
+} // namespace uavstab

@@ -1,0 +1,87 @@
+#include "uavstab/motion_estimator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace uavstab {
+
+namespace {
+
+// Residual (analysis pixels) beyond which a track counts as an outlier of the fit.
+constexpr double kInlierThresholdAnalysisPx = 1.5;
+// Inter-frame motions beyond these are not camera shake but a failed estimate.
+constexpr double kMaxAngle = 0.35;  // 20 degrees
+constexpr double kMaxLogScale = 0.2;
+
+bool plausible(const Similarity &m, int width, int height)
+{
+    return std::abs(m.angle) <= kMaxAngle && std::abs(std::log(m.scale)) <= kMaxLogScale &&
+           std::abs(m.dx) <= width && std::abs(m.dy) <= height;
+}
+
+} // namespace
+
+MotionEstimator::MotionEstimator(const StabilizerConfig &config)
+    : config_(config), tracker_(config), selector_(config.model, config.dwell)
+{
+}
+
+void MotionEstimator::reset()
+{
+    tracker_.reset();
+    selector_.reset();
+}
+
+void MotionEstimator::setConfig(const StabilizerConfig &config)
+{
+    config_ = config;
+    tracker_.setConfig(config);
+    selector_.setChoice(config.model, config.dwell);
+}
+
+MotionEstimate MotionEstimator::estimate(const FrameView &frame)
+{
+    MotionEstimate result;
+    const PointMatches matches = tracker_.track(frame);
+    result.points = int(matches.current.size());
+    if (matches.first) {
+        result.first = true;
+        return result;
+    }
+    if (result.points < config_.min_points) {
+        result.skipped = true;
+        return result;
+    }
+
+    const double scale = std::max(1.0, double(frame.width) / std::min(frame.width, config_.analysis_width));
+    const double threshold = kInlierThresholdAnalysisPx * scale;
+    const std::uint32_t seed = ++frame_count_;
+    // The motion maps this frame's points onto the previous frame's.
+    const auto &from = matches.current;
+    const auto &to = matches.previous;
+
+    RobustFit fit;
+    MotionModel model;
+    if (config_.model == ModelChoice::Hybrid) {
+        // The permissive fit finds the inliers both models are compared on.
+        RobustFit similarity = fitRobust(MotionModel::Similarity, from, to, threshold, seed);
+        model = selector_.select(from, to, &similarity.inliers);
+        fit = model == MotionModel::Similarity ? std::move(similarity)
+                                               : fitRobust(MotionModel::Rigid, from, to, threshold, seed);
+    } else {
+        model = selector_.select(from, to);
+        fit = fitRobust(model, from, to, threshold, seed);
+    }
+
+    result.model = model;
+    result.inliers = fit.inlier_count;
+    result.rms = fit.rms;
+    if (fit.inlier_count < config_.min_points || !plausible(fit.motion, frame.width, frame.height)) {
+        result.skipped = true;
+        return result;
+    }
+    result.motion = fit.motion;
+    return result;
+}
+
+} // namespace uavstab

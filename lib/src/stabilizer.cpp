@@ -1,0 +1,324 @@
+#include "uavstab/stabilizer.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <stdexcept>
+
+#include "uavstab/frame_warper.hpp"
+#include "uavstab/framing.hpp"
+#include "uavstab/trajectory_smoother.hpp"
+#include "worker_pool.hpp"
+
+namespace uavstab {
+
+namespace {
+// Frames shorter than this are warped in one piece: stripes would cost more than they save.
+constexpr int kMinStripeRows = 64;
+// Stripe boundaries on multiples of this keep subsampled chroma rows whole.
+constexpr int kStripeAlign = 16;
+} // namespace
+
+struct Stabilizer::Held {
+    std::unique_ptr<FrameSlot> slot;
+    FrameStats stats;
+};
+
+struct Stabilizer::Pending {
+    std::unique_ptr<FrameSlot> slot;
+    FrameView input;
+    FrameView output;
+    FrameStats stats;
+    Outcome outcome = Outcome::Warped;
+    std::string error;          // written under Stabilizer::mutex_
+    // Settings captured when the frame was finalized.
+    SmootherKind smoother = SmootherKind::Box;
+    int radius = 0;
+    double crop = 0.0;
+    bool limit_to_crop = true;
+    BorderMode border = BorderMode::Black;
+    Similarity output_to_input;
+    std::atomic<int> stripes_left{0};
+    bool ready = false;         // under Stabilizer::mutex_
+};
+
+Stabilizer::Stabilizer(const StabilizerConfig &config)
+    : config_(config), estimator_(config)
+{
+    config_.validate();
+    pool_ = std::make_unique<WorkerPool>(config_.resolvedThreads());
+}
+
+Stabilizer::~Stabilizer()
+{
+    pool_.reset();  // runs every queued stripe to completion first
+}
+
+void Stabilizer::setConfig(const StabilizerConfig &config)
+{
+    config.validate();
+    std::lock_guard<std::mutex> lock(mutex_);
+    next_config_ = config;
+}
+
+StabilizerConfig Stabilizer::config() const
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    return next_config_ ? *next_config_ : config_;
+}
+
+void Stabilizer::applyConfig()
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!next_config_)
+        return;
+    const int threads = config_.threads;
+    config_ = *next_config_;
+    config_.threads = threads;  // the pool is rebuilt only in reset()
+    next_config_.reset();
+    estimator_.setConfig(config_);
+}
+
+void Stabilizer::setReadyCallback(std::function<void()> callback)
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    ready_callback_ = std::move(callback);
+}
+
+std::size_t Stabilizer::heldCount() const
+{
+    return held_.size();
+}
+
+std::size_t Stabilizer::finalizedCount() const
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    return finalized_.size();
+}
+
+void Stabilizer::markDiscontinuity()
+{
+    discontinuity_ = true;
+}
+
+void Stabilizer::push(std::unique_ptr<FrameSlot> slot)
+{
+    if (!slot)
+        throw std::invalid_argument("Stabilizer::push: null slot");
+    const FrameView frame = slot->input();
+    if (!frame.valid())
+        throw std::invalid_argument("Stabilizer::push: invalid frame view");
+    applyConfig();
+
+    if (have_geometry_ && !frame.sameGeometry(geometry_)) {
+        flush();
+        discontinuity_ = true;
+    }
+    geometry_ = frame;
+    have_geometry_ = true;
+    if (discontinuity_)
+        estimator_.reset();
+
+    Held held;
+    held.stats.segment_start = discontinuity_;
+    try {
+        const MotionEstimate estimate = estimator_.estimate(frame);
+        held.stats.motion = estimate.motion;
+        held.stats.model = estimate.model;
+        held.stats.points = estimate.points;
+        held.stats.inliers = estimate.inliers;
+        held.stats.skipped = estimate.skipped;
+    } catch (const std::exception &) {
+        // A frame the estimator cannot read gets no correction; tracking restarts.
+        estimator_.reset();
+        held.stats.skipped = true;
+    }
+    held.stats.index = trajectory_.append(held.stats.motion, discontinuity_);
+    held.stats.trajectory = trajectory_.pose(held.stats.index);
+    discontinuity_ = false;
+    held.slot = std::move(slot);
+    held_.push_back(std::move(held));
+
+    while (held_.size() > std::size_t(config_.delay))
+        finalizeOldest();
+}
+
+void Stabilizer::flush()
+{
+    applyConfig();
+    while (!held_.empty())
+        finalizeOldest();
+}
+
+void Stabilizer::finalizeOldest()
+{
+    Held held = std::move(held_.front());
+    held_.pop_front();
+
+    auto pending = std::make_shared<Pending>();
+    pending->stats = held.stats;
+    pending->input = held.slot->input();
+    pending->smoother = config_.smoother;
+    pending->radius = config_.smoothing_radius;
+    pending->crop = config_.crop;
+    pending->limit_to_crop = config_.limit_to_crop;
+    pending->border = config_.border;
+    if (config_.bypass) {
+        pending->outcome = Outcome::Bypassed;
+    } else {
+        try {
+            const std::optional<FrameView> out = held.slot->acquireOutput();
+            if (!out) {
+                pending->outcome = Outcome::NoOutput;
+            } else if (!out->valid() || !out->sameGeometry(pending->input)) {
+                pending->outcome = Outcome::Failed;
+                pending->error = "output frame does not match the input frame";
+            } else {
+                pending->output = *out;
+            }
+        } catch (const std::exception &e) {
+            pending->outcome = Outcome::Failed;
+            pending->error = std::string("acquiring the output frame failed: ") + e.what();
+        }
+    }
+    pending->slot = std::move(held.slot);
+
+    std::size_t centre = 0;
+    std::vector<Similarity> window = trajectory_.window(held.stats.index, config_.smoothing_radius, &centre);
+    // Poses older than the next held frame's window are never needed again.
+    const std::int64_t keep_from = held_.empty() ? trajectory_.next() : held_.front().stats.index;
+    trajectory_.dropBefore(keep_from - config_.smoothing_radius);
+
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        finalized_.push_back(pending);
+    }
+    pool_->submit([this, pending, window = std::move(window), centre]() mutable {
+        startWarp(pending, std::move(window), centre);
+    });
+}
+
+void Stabilizer::startWarp(const std::shared_ptr<Pending> &pending, std::vector<Similarity> window,
+                           std::size_t centre)
+{
+    // Motion compensation: smooth the path around this frame, derive the correction.
+    FrameStats &stats = pending->stats;
+    try {
+        stats.smoothed = makeSmoother(pending->smoother, pending->radius)->smooth(window, centre);
+        const Similarity correction = stats.smoothed.inverse() * stats.trajectory;
+        const Framing framing = frameOutput(correction, pending->input.width, pending->input.height,
+                                            pending->crop, pending->limit_to_crop);
+        stats.correction = framing.applied;
+        stats.zoom = framing.zoom;
+        stats.correction_fraction = framing.fraction;
+        pending->output_to_input = framing.output_to_input;
+    } catch (const std::exception &e) {
+        pending->outcome = Outcome::Failed;
+        pending->error = std::string("smoothing failed: ") + e.what();
+    }
+
+    if (pending->outcome != Outcome::Warped) {
+        pending->stripes_left = 1;
+        completeStripe(pending);
+        return;
+    }
+
+    // Image composition, split into row stripes so that all workers share one frame and
+    // the frame is ready as soon as possible.
+    const int height = pending->input.height;
+    const int stripes = height < 2 * kMinStripeRows ? 1 : std::min(pool_->size(), height / kMinStripeRows);
+    int rows = (height + stripes - 1) / stripes;
+    rows = (rows + kStripeAlign - 1) / kStripeAlign * kStripeAlign;
+    const int count = (height + rows - 1) / rows;
+    pending->stripes_left = count;
+    for (int s = 1; s < count; ++s) {
+        const int begin = s * rows, end = std::min(height, begin + rows);
+        pool_->submit([this, pending, begin, end] { runStripe(pending, begin, end); });
+    }
+    runStripe(pending, 0, std::min(height, rows));
+}
+
+void Stabilizer::runStripe(const std::shared_ptr<Pending> &pending, int begin, int end)
+{
+    try {
+        FrameWarper(pending->border).warpRows(pending->input, pending->output, pending->output_to_input, begin, end);
+    } catch (const std::exception &e) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        pending->outcome = Outcome::Failed;
+        pending->error = std::string("warping failed: ") + e.what();
+    }
+    completeStripe(pending);
+}
+
+void Stabilizer::completeStripe(const std::shared_ptr<Pending> &pending)
+{
+    if (pending->stripes_left.fetch_sub(1) != 1)
+        return;
+    std::function<void()> callback;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        pending->ready = true;
+        callback = ready_callback_;
+    }
+    ready_.notify_all();
+    if (callback)
+        callback();
+}
+
+StabilizedFrame Stabilizer::take(std::unique_lock<std::mutex> &)
+{
+    std::shared_ptr<Pending> pending = std::move(finalized_.front());
+    finalized_.pop_front();
+    StabilizedFrame frame;
+    frame.slot = std::move(pending->slot);
+    frame.stats = pending->stats;
+    frame.outcome = pending->outcome;
+    frame.error = std::move(pending->error);
+    return frame;
+}
+
+std::optional<StabilizedFrame> Stabilizer::tryPop()
+{
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (finalized_.empty() || !finalized_.front()->ready)
+        return std::nullopt;
+    return take(lock);
+}
+
+std::optional<StabilizedFrame> Stabilizer::waitPop()
+{
+    std::unique_lock<std::mutex> lock(mutex_);
+    ready_.wait(lock, [this] { return finalized_.empty() || finalized_.front()->ready; });
+    if (finalized_.empty())
+        return std::nullopt;
+    return take(lock);
+}
+
+void Stabilizer::waitForAllFinalized(std::unique_lock<std::mutex> &lock)
+{
+    ready_.wait(lock, [this] {
+        return std::all_of(finalized_.begin(), finalized_.end(), [](const auto &p) { return p->ready; });
+    });
+}
+
+void Stabilizer::reset()
+{
+    held_.clear();
+    {
+        std::unique_lock<std::mutex> lock(mutex_);
+        waitForAllFinalized(lock);
+        finalized_.clear();
+        if (next_config_) {
+            config_ = *next_config_;
+            next_config_.reset();
+        }
+    }
+    estimator_.setConfig(config_);
+    estimator_.reset();
+    if (pool_->size() != config_.resolvedThreads())
+        pool_ = std::make_unique<WorkerPool>(config_.resolvedThreads());
+    trajectory_.clear();
+    discontinuity_ = true;
+    have_geometry_ = false;
+}
+
+} // namespace uavstab

@@ -1,0 +1,24 @@
+// Quality measures on clips whose true camera path is known.
+#pragma once
+
+#include <vector>
+
+#include "uavstab/frame_stats.hpp"
+#include "uavstab/similarity.hpp"
+
+namespace uavstab::synthetic {
+
+// Output pixel (centred) -> input pixel (centred) for a frame the stabilizer produced.
+Similarity outputToInput(const FrameStats &stats);
+
+// Residual jitter, in world pixels: the four frame corners are followed through the
+// world along the given camera path (frame centred coords -> world); the result is the
+// RMS, over corners and frames, of each corner's path minus its Gaussian low-pass
+// (sigma in frames). For the input: the true poses; for the output: true pose * output_to_input.
+double residualJitter(const std::vector<Similarity> &world_from_frame, int width, int height, double sigma = 8.0);
+
+// Share of the output frame that shows picture: output pixels whose source lies inside
+// the input frame (sampled on a grid).
+double coverage(const Similarity &output_to_input, int width, int height);
+
+} // namespace uavstab::synthetic

@@ -1,0 +1,190 @@
+#include "shaky_flight.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <random>
+#include <stdexcept>
+
+#include "format_conversion.hpp"
+
+#ifndef UAVSTAB_DATA_DIR
+#error "UAVSTAB_DATA_DIR must point at tests/data"
+#endif
+
+namespace uavstab::synthetic {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kBandWaves = 8;
+// Share of the canvas the camera footprint spans at base altitude.
+constexpr double kFootprint = 0.62;
+
+double radians(double deg)
+{
+    return deg * kPi / 180.0;
+}
+
+} // namespace
+
+std::string defaultCanvasPath()
+{
+    return std::string(UAVSTAB_DATA_DIR) + "/aero1.jpg";
+}
+
+ShakyFlight::ShakyFlight(const FlightOptions &options)
+    : options_(options)
+{
+    if (options_.width < 2 || options_.height < 2 || options_.frames < 0 || options_.fps <= 0)
+        throw std::invalid_argument("ShakyFlight: bad size, frame count or fps");
+    const std::string path = options_.canvas.empty() ? defaultCanvasPath() : options_.canvas;
+    canvas_ = cv::imread(path, cv::IMREAD_COLOR);
+    if (canvas_.empty())
+        throw std::runtime_error("ShakyFlight: cannot read canvas " + path);
+
+    base_scale_ = kFootprint * std::min(double(canvas_.cols) / options_.width, double(canvas_.rows) / options_.height);
+
+    std::mt19937 rng(options_.seed);
+    std::uniform_real_distribution<double> phase(0.0, 2 * kPi);
+    std::uniform_real_distribution<double> band_frequency(2.0, 8.0);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+
+    // Room left for the centre to wander: the canvas minus the (rotated, zoomed, jittered)
+    // footprint, in world units.
+    const double max_angle = radians(options_.rotation_amplitude_deg + 4 * options_.rotation_band_deg);
+    const double zoom = 1.0 + options_.zoom_amplitude;
+    const double half_w = 0.5 * zoom * (options_.width * std::cos(max_angle) + options_.height * std::sin(max_angle));
+    const double half_h = 0.5 * zoom * (options_.height * std::cos(max_angle) + options_.width * std::sin(max_angle));
+    const double shake = 4 * (options_.band_px + options_.noise_px);
+    path_amplitude_.x = std::max(0.0, 0.5 * canvas_.cols / base_scale_ - half_w - shake);
+    path_amplitude_.y = std::max(0.0, 0.5 * canvas_.rows / base_scale_ - half_h - shake);
+    path_phase_x_ = phase(rng);
+    path_phase_y_ = phase(rng);
+    rotation_phase_ = phase(rng);
+    zoom_phase_ = phase(rng);
+
+    auto make_band = [&](double rms) {
+        std::vector<Wave> band;
+        // Equal amplitudes a give RMS a * sqrt(n / 2).
+        const double a = rms / std::sqrt(kBandWaves / 2.0);
+        for (int k = 0; k < kBandWaves; ++k)
+            band.push_back({a, band_frequency(rng), phase(rng)});
+        return band;
+    };
+    band_x_ = make_band(options_.band_px);
+    band_y_ = make_band(options_.band_px);
+    band_angle_ = make_band(radians(options_.rotation_band_deg));
+    auto make_noise = [&](double rms) {
+        std::vector<double> noise(std::size_t(std::max(options_.frames, 1)));
+        for (auto &n : noise)
+            n = rms * gauss(rng);
+        return noise;
+    };
+    noise_x_ = make_noise(options_.noise_px);
+    noise_y_ = make_noise(options_.noise_px);
+    noise_angle_ = make_noise(radians(options_.rotation_noise_deg));
+
+    if (options_.moving_objects > 0) {
+        cv::Mat texture = cv::imread(std::string(UAVSTAB_DATA_DIR) + "/aero3.jpg", cv::IMREAD_COLOR);
+        if (texture.empty())
+            texture = canvas_;
+        std::uniform_real_distribution<double> unit(0.0, 1.0);
+        for (int k = 0; k < options_.moving_objects; ++k) {
+            MovingObject o;
+            const int pw = std::max(4, int(0.12 * options_.width * base_scale_));
+            const int ph = std::max(4, int(0.08 * options_.width * base_scale_));
+            const int px = int(unit(rng) * (texture.cols - pw)), py = int(unit(rng) * (texture.rows - ph));
+            o.patch = texture(cv::Rect(px, py, std::min(pw, texture.cols), std::min(ph, texture.rows))).clone();
+            o.start = {(unit(rng) - 0.5) * options_.width, (unit(rng) - 0.5) * options_.height};
+            const double speed = 2.0 + 3.0 * unit(rng), heading = phase(rng);
+            o.velocity = {speed * std::cos(heading), speed * std::sin(heading)};
+            objects_.push_back(std::move(o));
+        }
+    }
+}
+
+double ShakyFlight::jitter(const std::vector<Wave> &band, const std::vector<double> &noise, int i) const
+{
+    const double t = i / options_.fps;
+    double v = noise.empty() ? 0.0 : noise[std::size_t(std::clamp(i, 0, int(noise.size()) - 1))];
+    for (const Wave &w : band)
+        v += w.amplitude * std::sin(2 * kPi * w.frequency * t + w.phase);
+    return v;
+}
+
+Similarity ShakyFlight::intendedPose(int i) const
+{
+    // A Lissajous pan whose speed peaks near pan_speed, a slow yaw, an optional slow zoom.
+    const double t = i / options_.fps;
+    const double wx = path_amplitude_.x > 0 ? options_.pan_speed * options_.fps / path_amplitude_.x : 0.0;
+    const double wy = path_amplitude_.y > 0 ? 0.7 * options_.pan_speed * options_.fps / path_amplitude_.y : 0.0;
+    Similarity pose;
+    pose.dx = path_amplitude_.x * std::sin(wx * t + path_phase_x_);
+    pose.dy = path_amplitude_.y * std::sin(wy * t + path_phase_y_);
+    pose.angle = radians(options_.rotation_amplitude_deg) * std::sin(2 * kPi * t / 12.0 + rotation_phase_);
+    pose.scale = 1.0 + options_.zoom_amplitude * std::sin(2 * kPi * t / 15.0 + zoom_phase_);
+    return pose;
+}
+
+Similarity ShakyFlight::truePose(int i) const
+{
+    Similarity pose = intendedPose(i);
+    // Jitter is camera shake in the camera's own frame: offset in output pixels.
+    const Similarity shake{jitter(band_x_, noise_x_, i), jitter(band_y_, noise_y_, i),
+                           jitter(band_angle_, noise_angle_, i), 1.0};
+    return pose * shake;
+}
+
+Similarity ShakyFlight::trueMotion(int i) const
+{
+    return truePose(i - 1).inverse() * truePose(i);
+}
+
+cv::Mat ShakyFlight::renderBgr(int i) const
+{
+    cv::Mat scene = canvas_;
+    const cv::Point2d canvas_centre((canvas_.cols - 1) * 0.5, (canvas_.rows - 1) * 0.5);
+    if (!objects_.empty()) {
+        scene = canvas_.clone();
+        for (const MovingObject &o : objects_) {
+            // Objects bounce around the middle of the scene, independently of the camera.
+            const cv::Point2d range(0.6 * options_.width, 0.6 * options_.height);
+            cv::Point2d p = o.start + o.velocity * double(i);
+            auto fold = [](double v, double r) {
+                const double period = 4 * r;
+                double m = std::fmod(v + r, period);
+                if (m < 0)
+                    m += period;
+                return m < 2 * r ? m - r : 3 * r - m;
+            };
+            p = {fold(p.x, range.x), fold(p.y, range.y)};
+            const int x = int(std::lround(canvas_centre.x + base_scale_ * p.x - o.patch.cols / 2.0));
+            const int y = int(std::lround(canvas_centre.y + base_scale_ * p.y - o.patch.rows / 2.0));
+            const cv::Rect target = cv::Rect(x, y, o.patch.cols, o.patch.rows) & cv::Rect(0, 0, scene.cols, scene.rows);
+            if (target.area() > 0)
+                o.patch(cv::Rect(target.x - x, target.y - y, target.width, target.height)).copyTo(scene(target));
+        }
+    }
+    // canvas = centre + base_scale * pose(p), p = output pixel - output centre.
+    const Similarity world_to_canvas{canvas_centre.x, canvas_centre.y, 0.0, base_scale_};
+    const auto m = (world_to_canvas * truePose(i)).pixelMatrix(options_.width, options_.height);
+    // pixelMatrix adds the output centre back on both sides; undo it on the canvas side.
+    const double cx = (options_.width - 1) * 0.5, cy = (options_.height - 1) * 0.5;
+    const double matrix[6] = {m[0], m[1], m[2] - cx, m[3], m[4], m[5] - cy};
+    cv::Mat out;
+    cv::warpAffine(scene, out, cv::Mat(2, 3, CV_64F, const_cast<double *>(matrix)),
+                   cv::Size(options_.width, options_.height), cv::INTER_CUBIC | cv::WARP_INVERSE_MAP,
+                   cv::BORDER_REFLECT_101);
+    return out;
+}
+
+FrameBuffer ShakyFlight::render(int i, int row_padding) const
+{
+    FrameBuffer frame(options_.format, options_.width, options_.height, row_padding);
+    bgrToFrame(renderBgr(i), frame);
+    return frame;
+}
+
+} // namespace uavstab::synthetic
