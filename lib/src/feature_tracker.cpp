@@ -13,6 +13,10 @@ namespace {
 
 constexpr int kMaxPyramidLevel = 3;
 constexpr double kQualityLevel = 0.01;
+// Mean absolute difference (grey levels) between a tracked patch and where LK put it.
+// Real tracks stay far below; unrelated frames (noise, cuts, flashes) land near 85,
+// where forward and backward tracking can still agree on a spurious zero motion.
+constexpr float kMaxPatchError = 40.f;
 
 // Window and pyramid depth that fit the analysis image (tiny frames get small windows).
 struct LkGeometry {
@@ -39,7 +43,7 @@ struct FeatureTracker::Impl {
     std::vector<cv::Point2f> tracks;  // positions in the previous frame, analysis pixels
     std::vector<cv::Point2f> forward, backward;
     std::vector<uchar> status_forward, status_backward;
-    std::vector<float> errors;
+    std::vector<float> errors_forward, errors_backward;
     int track_age = 0;
     bool has_previous = false;
     int frame_width = 0, frame_height = 0;
@@ -132,9 +136,9 @@ PointMatches FeatureTracker::track(const FrameView &frame)
         if (!d.tracks.empty()) {
             const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
             cv::calcOpticalFlowPyrLK(d.previous_pyramid, d.current_pyramid, d.tracks, d.forward,
-                                     d.status_forward, d.errors, d.lk.window, d.lk.levels, criteria);
+                                     d.status_forward, d.errors_forward, d.lk.window, d.lk.levels, criteria);
             cv::calcOpticalFlowPyrLK(d.current_pyramid, d.previous_pyramid, d.forward, d.backward,
-                                     d.status_backward, d.errors, d.lk.window, d.lk.levels, criteria);
+                                     d.status_backward, d.errors_backward, d.lk.window, d.lk.levels, criteria);
             std::vector<cv::Point2f> survivors;
             survivors.reserve(d.tracks.size());
             const float limit2 = float(d.config.fb_threshold * d.config.fb_threshold);
@@ -142,7 +146,7 @@ PointMatches FeatureTracker::track(const FrameView &frame)
             for (std::size_t i = 0; i < d.tracks.size(); ++i) {
                 const cv::Point2f e = d.backward[i] - d.tracks[i];
                 if (!d.status_forward[i] || !d.status_backward[i] || e.dot(e) > limit2 ||
-                    !inside.contains(d.forward[i]))
+                    d.errors_forward[i] > kMaxPatchError || !inside.contains(d.forward[i]))
                     continue;
                 matches.previous.push_back(d.toFrame(d.tracks[i]));
                 matches.current.push_back(d.toFrame(d.forward[i]));

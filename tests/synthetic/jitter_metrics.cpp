@@ -24,17 +24,28 @@ double residualJitter(const std::vector<Similarity> &path, int width, int height
         for (std::size_t i = 0; i < n; ++i)
             track[i] = path[i].apply(corner);
         for (std::size_t i = 0; i < n; ++i) {
-            double wsum = 0, x = 0, y = 0;
+            // Gaussian-weighted local line: the Gaussian low-pass wherever the window is
+            // whole, and no bias on a pan where the clip's ends cut it short.
+            double s0 = 0, s1 = 0, s2 = 0, x0 = 0, x1 = 0, y0 = 0, y1 = 0;
             for (int k = -radius; k <= radius; ++k) {
                 const long j = long(i) + k;
                 if (j < 0 || j >= long(n))
-                    continue;  // truncated and renormalised at the ends
+                    continue;
                 const double w = std::exp(-0.5 * k * k / (sigma * sigma));
-                wsum += w;
-                x += w * track[std::size_t(j)].x;
-                y += w * track[std::size_t(j)].y;
+                const Point2 &p = track[std::size_t(j)];
+                s0 += w;
+                s1 += w * k;
+                s2 += w * k * k;
+                x0 += w * p.x;
+                x1 += w * k * p.x;
+                y0 += w * p.y;
+                y1 += w * k * p.y;
             }
-            const double ex = track[i].x - x / wsum, ey = track[i].y - y / wsum;
+            const double det = s0 * s2 - s1 * s1;
+            const bool line = det > 1e-9 * s0 * s0;
+            const double lx = line ? (s2 * x0 - s1 * x1) / det : x0 / s0;
+            const double ly = line ? (s2 * y0 - s1 * y1) / det : y0 / s0;
+            const double ex = track[i].x - lx, ey = track[i].y - ly;
             sum2 += ex * ex + ey * ey;
         }
     }

@@ -14,7 +14,9 @@ Similarity outputToInput(const FrameStats &stats);
 // Residual jitter, in world pixels: the four frame corners are followed through the
 // world along the given camera path (frame centred coords -> world); the result is the
 // RMS, over corners and frames, of each corner's path minus its Gaussian low-pass
-// (sigma in frames). For the input: the true poses; for the output: true pose * output_to_input.
+// (sigma in frames; near the clip's ends, where the window is cut short, a
+// Gaussian-weighted local line, so that a pan is not mistaken for shake).
+// For the input: the true poses; for the output: true pose * output_to_input.
 double residualJitter(const std::vector<Similarity> &world_from_frame, int width, int height, double sigma = 8.0);
 
 // Share of the output frame that shows picture: output pixels whose source lies inside

@@ -1,0 +1,123 @@
+// Tracker + estimator against the synthetic flight's known motion.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "shaky_flight.hpp"
+#include "uavstab/motion_estimator.hpp"
+
+using namespace uavstab;
+
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+double median(std::vector<double> v)
+{
+    std::sort(v.begin(), v.end());
+    return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+struct Errors {
+    double translation, rotation_deg;
+    int skipped;
+};
+
+Errors estimateFlight(const synthetic::FlightOptions &options, const StabilizerConfig &config)
+{
+    const synthetic::ShakyFlight flight(options);
+    MotionEstimator estimator(config);
+    std::vector<double> translation, rotation;
+    int skipped = 0;
+    for (int i = 0; i < flight.frameCount(); ++i) {
+        const MotionEstimate e = estimator.estimate(flight.render(i).view());
+        if (i == 0) {
+            EXPECT_TRUE(e.first);
+            continue;
+        }
+        if (e.skipped) {
+            ++skipped;
+            continue;
+        }
+        const Similarity truth = flight.trueMotion(i);
+        translation.push_back(std::hypot(e.motion.dx - truth.dx, e.motion.dy - truth.dy));
+        rotation.push_back(std::abs(e.motion.angle - truth.angle) / kDeg);
+    }
+    return {median(translation), median(rotation), skipped};
+}
+
+} // namespace
+
+TEST(FeatureTracker, EstimatesKnownMotionOfTheSyntheticFlight)
+{
+    synthetic::FlightOptions options;
+    options.frames = 60;
+    const Errors e = estimateFlight(options, StabilizerConfig{});
+    EXPECT_LT(e.translation, 0.3);
+    EXPECT_LT(e.rotation_deg, 0.05);
+    EXPECT_EQ(e.skipped, 0);
+}
+
+TEST(FeatureTracker, DownscaledAnalysisScalesMotionBackToFullResolution)
+{
+    synthetic::FlightOptions options;
+    options.width = 1280;
+    options.height = 720;
+    options.frames = 30;
+    options.band_px = 6.0;  // the same shake at twice the resolution
+    const Errors e = estimateFlight(options, StabilizerConfig{});  // analyses at 640 px
+    EXPECT_LT(e.translation, 0.6);  // 0.3 analysis px
+    EXPECT_LT(e.rotation_deg, 0.05);
+}
+
+TEST(FeatureTracker, MovingObjectsDoNotPullTheEstimate)
+{
+    synthetic::FlightOptions options;
+    options.frames = 60;
+    options.moving_objects = 4;
+    options.seed = 5;
+    const Errors e = estimateFlight(options, StabilizerConfig{});
+    EXPECT_LT(e.translation, 0.3);
+    EXPECT_LT(e.rotation_deg, 0.05);
+}
+
+TEST(FeatureTracker, RgbFormatsReadLumaToo)
+{
+    synthetic::FlightOptions options;
+    options.frames = 20;
+    options.format = PixelFormat::BGRx;
+    const Errors e = estimateFlight(options, StabilizerConfig{});
+    EXPECT_LT(e.translation, 0.3);
+}
+
+TEST(FeatureTracker, RedetectsOnScheduleAndKeepsAboutMaxCorners)
+{
+    synthetic::FlightOptions options;
+    options.frames = 16;
+    const synthetic::ShakyFlight flight(options);
+    StabilizerConfig config;
+    config.redetect_interval = 5;
+    FeatureTracker tracker(config);
+    std::vector<int> redetected;
+    for (int i = 0; i < flight.frameCount(); ++i) {
+        const PointMatches m = tracker.track(flight.render(i).view());
+        if (m.redetected)
+            redetected.push_back(i);
+        if (i > 0) {
+            EXPECT_LE(m.detected, config.max_corners);
+            EXPECT_GE(int(m.current.size()), config.max_corners / 2) << "frame " << i;
+        }
+    }
+    EXPECT_EQ(redetected, (std::vector<int>{1, 6, 11}));
+}
+
+TEST(FeatureTracker, UniformAndNoiseFramesGiveNoMatches)
+{
+    StabilizerConfig config;
+    FeatureTracker tracker(config);
+    FrameBuffer black(PixelFormat::I420, 320, 240);
+    black.fill(0);
+    for (int i = 0; i < 3; ++i)
+        EXPECT_TRUE(tracker.track(black.view()).current.empty());
+}

@@ -1,0 +1,244 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "buffer_slot.hpp"
+#include "shaky_flight.hpp"
+#include "uavstab/stabilizer.hpp"
+
+using namespace uavstab;
+using test::BufferSlot;
+
+namespace {
+
+StabilizerConfig smallConfig(int delay)
+{
+    StabilizerConfig c;
+    c.delay = delay;
+    c.threads = 2;
+    return c;
+}
+
+FrameBuffer texturedFrame(PixelFormat format, int w, int h, unsigned seed)
+{
+    FrameBuffer f(format, w, h);
+    std::mt19937 rng(seed);
+    for (int p = 0; p < f.view().planeCount(); ++p)
+        for (int y = 0; y < f.view().planeHeight(p); ++y)
+            for (int x = 0; x < f.view().planeRowBytes(p); ++x)
+                f.row(p, y)[x] = std::uint8_t(rng());
+    return f;
+}
+
+// Pushes n frames made by `make`, flushes, and returns the ids in the order they came back.
+template <typename Make>
+std::vector<int> roundTrip(Stabilizer &s, int n, Make make, std::vector<StabilizedFrame> *frames = nullptr)
+{
+    std::vector<int> ids;
+    auto take = [&](StabilizedFrame f) {
+        ids.push_back(BufferSlot::of(f).id());
+        if (frames)
+            frames->push_back(std::move(f));
+    };
+    for (int i = 0; i < n; ++i) {
+        s.push(BufferSlot::make(make(i), i));
+        while (auto f = s.tryPop())
+            take(std::move(*f));
+    }
+    s.flush();
+    while (auto f = s.waitPop())
+        take(std::move(*f));
+    return ids;
+}
+
+std::vector<int> iota(int n)
+{
+    std::vector<int> v(std::size_t(n), 0);
+    for (int i = 0; i < n; ++i)
+        v[std::size_t(i)] = i;
+    return v;
+}
+
+} // namespace
+
+TEST(Stabilizer, EveryFrameComesBackOnceInOrderWhateverWhenItIsFlushed)
+{
+    synthetic::FlightOptions options;
+    options.width = 160;
+    options.height = 96;
+    options.frames = 30;
+    const synthetic::ShakyFlight flight(options);
+    const int delay = 20;
+    for (int n : {0, 1, delay - 1, delay, delay + 1, 30}) {
+        Stabilizer s(smallConfig(delay));
+        EXPECT_EQ(roundTrip(s, n, [&](int i) { return flight.render(i); }), iota(n)) << n << " frames";
+        EXPECT_EQ(s.heldCount(), 0u);
+        EXPECT_EQ(s.finalizedCount(), 0u);
+    }
+}
+
+TEST(Stabilizer, HoldsExactlyDelayFrames)
+{
+    Stabilizer s(smallConfig(5));
+    for (int i = 0; i < 5; ++i) {
+        s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
+        EXPECT_EQ(s.heldCount(), std::size_t(i + 1));
+        EXPECT_FALSE(s.waitPop().has_value());  // nothing finalized yet: no wait
+    }
+    s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, 9), 5));
+    EXPECT_EQ(s.heldCount(), 5u);
+    auto first = s.waitPop();
+    ASSERT_TRUE(first.has_value());
+    EXPECT_EQ(BufferSlot::of(*first).id(), 0);
+    EXPECT_EQ(first->outcome, Outcome::Warped);
+}
+
+TEST(Stabilizer, DelayZeroReturnsEachFrameRightAway)
+{
+    Stabilizer s(smallConfig(0));
+    for (int i = 0; i < 5; ++i) {
+        s.push(BufferSlot::make(texturedFrame(PixelFormat::NV12, 64, 48, unsigned(i)), i));
+        auto f = s.waitPop();
+        ASSERT_TRUE(f.has_value());
+        EXPECT_EQ(BufferSlot::of(*f).id(), i);
+    }
+}
+
+TEST(Stabilizer, BlackUniformAndNoiseFramesGiveIdentityAndNoCrash)
+{
+    for (int kind = 0; kind < 3; ++kind) {
+        Stabilizer s(smallConfig(3));
+        std::vector<StabilizedFrame> frames;
+        const auto ids = roundTrip(s, 12, [&](int i) {
+            FrameBuffer f(PixelFormat::I420, 128, 96);
+            if (kind == 0)
+                f.fill(0);
+            else if (kind == 1)
+                f.fill(117);
+            else
+                f = texturedFrame(PixelFormat::I420, 128, 96, unsigned(100 + i));  // unrelated noise
+            return f;
+        }, &frames);
+        EXPECT_EQ(ids, iota(12));
+        for (const auto &f : frames) {
+            EXPECT_EQ(f.outcome, Outcome::Warped);
+            EXPECT_TRUE(f.stats.correction.isIdentity(1e-9)) << "kind " << kind << " frame " << f.stats.index;
+            if (f.stats.index > 0) {
+                EXPECT_TRUE(f.stats.skipped);
+            }
+        }
+    }
+}
+
+TEST(Stabilizer, TinyAndOddSizesWork)
+{
+    for (auto [w, h] : {std::pair{16, 16}, {17, 17}, {33, 19}, {1, 1}, {2, 3}, {641, 359}}) {
+        for (PixelFormat format : {PixelFormat::I420, PixelFormat::NV21, PixelFormat::RGB, PixelFormat::Gray8}) {
+            Stabilizer s(smallConfig(4));
+            std::vector<StabilizedFrame> frames;
+            const auto ids = roundTrip(s, 8, [&](int i) { return texturedFrame(format, w, h, unsigned(i)); }, &frames);
+            EXPECT_EQ(ids, iota(8)) << w << "x" << h;
+            for (const auto &f : frames)
+                EXPECT_EQ(f.outcome, Outcome::Warped) << w << "x" << h << " " << f.error;
+        }
+    }
+}
+
+TEST(Stabilizer, GeometryChangeFlushesAndStartsANewPath)
+{
+    Stabilizer s(smallConfig(6));
+    std::vector<StabilizedFrame> frames;
+    const auto ids = roundTrip(s, 20, [&](int i) {
+        return texturedFrame(i < 10 ? PixelFormat::I420 : PixelFormat::BGRx, i < 10 ? 96 : 80, 64, unsigned(i));
+    }, &frames);
+    EXPECT_EQ(ids, iota(20));
+    EXPECT_TRUE(frames[10].stats.segment_start);
+    EXPECT_EQ(BufferSlot::of(frames[10]).inputBuffer().format(), PixelFormat::BGRx);
+}
+
+TEST(Stabilizer, ResetDropsHeldFramesAndRestarts)
+{
+    Stabilizer s(smallConfig(5));
+    for (int i = 0; i < 8; ++i)
+        s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
+    s.reset();
+    EXPECT_EQ(s.heldCount(), 0u);
+    EXPECT_EQ(s.finalizedCount(), 0u);
+    EXPECT_FALSE(s.tryPop().has_value());
+    const auto ids = roundTrip(s, 3, [&](int i) { return texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)); });
+    EXPECT_EQ(ids, iota(3));
+}
+
+TEST(Stabilizer, BypassHandsFramesBackUntouchedWithTheSameDelay)
+{
+    StabilizerConfig c = smallConfig(3);
+    c.bypass = true;
+    Stabilizer s(c);
+    std::vector<StabilizedFrame> frames;
+    for (int i = 0; i < 3; ++i)
+        s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
+    EXPECT_FALSE(s.tryPop().has_value());
+    EXPECT_EQ(roundTrip(s, 2, [&](int i) { return texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)); }, &frames),
+              (std::vector<int>{0, 1, 2, 0, 1}));
+    for (const auto &f : frames)
+        EXPECT_EQ(f.outcome, Outcome::Bypassed);
+}
+
+TEST(Stabilizer, ConfigChangesApplyAtTheNextPush)
+{
+    Stabilizer s(smallConfig(10));
+    for (int i = 0; i < 10; ++i)
+        s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
+    EXPECT_EQ(s.heldCount(), 10u);
+    StabilizerConfig c = s.config();
+    c.delay = 2;
+    s.setConfig(c);
+    s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, 10), 10));
+    EXPECT_EQ(s.heldCount(), 2u);  // the shorter delay releases the surplus, in order
+    for (int i = 0; i < 9; ++i) {
+        auto f = s.waitPop();
+        ASSERT_TRUE(f.has_value());
+        EXPECT_EQ(BufferSlot::of(*f).id(), i);
+    }
+    StabilizerConfig bad = c;
+    bad.max_corners = 1000;
+    EXPECT_THROW(s.setConfig(bad), std::invalid_argument);
+}
+
+TEST(Stabilizer, OutputAcquisitionFailuresComeBackAsOutcomes)
+{
+    struct NoOutputSlot : FrameSlot {
+        FrameBuffer in{PixelFormat::Gray8, 32, 32};
+        bool fail;
+        explicit NoOutputSlot(bool f) : fail(f) {}
+        FrameView input() override { return in.view(); }
+        std::optional<FrameView> acquireOutput() override
+        {
+            if (fail)
+                throw std::runtime_error("pool is gone");
+            return std::nullopt;
+        }
+    };
+    Stabilizer s(smallConfig(0));
+    s.push(std::make_unique<NoOutputSlot>(false));
+    s.push(std::make_unique<NoOutputSlot>(true));
+    auto a = s.waitPop(), b = s.waitPop();
+    ASSERT_TRUE(a && b);
+    EXPECT_EQ(a->outcome, Outcome::NoOutput);
+    EXPECT_EQ(b->outcome, Outcome::Failed);
+    EXPECT_NE(b->error.find("pool is gone"), std::string::npos);
+}
+
+TEST(Stabilizer, InvalidInputIsRejected)
+{
+    Stabilizer s(smallConfig(2));
+    EXPECT_THROW(s.push(nullptr), std::invalid_argument);
+    struct BadSlot : FrameSlot {
+        FrameView input() override { return FrameView{PixelFormat::I420, 64, 64, {}}; }
+        std::optional<FrameView> acquireOutput() override { return std::nullopt; }
+    };
+    EXPECT_THROW(s.push(std::make_unique<BadSlot>()), std::invalid_argument);
+    StabilizerConfig c;
+    c.crop = 0.9;
+    EXPECT_THROW(Stabilizer{c}, std::invalid_argument);
+}
