@@ -50,6 +50,7 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
     }
     if (result.points < config_.min_points) {
         result.skipped = true;
+        result.lost = matches.detected >= config_.min_points;
         return result;
     }
 
@@ -78,6 +79,7 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
     result.rms = fit.rms;
     if (fit.inlier_count < config_.min_points || !plausible(fit.motion, frame.width, frame.height)) {
         result.skipped = true;
+        result.lost = true;
         return result;
     }
     result.motion = fit.motion;

@@ -119,7 +119,6 @@ void Stabilizer::push(std::unique_ptr<FrameSlot> slot)
         estimator_.reset();
 
     Held held;
-    held.stats.segment_start = discontinuity_;
     try {
         const MotionEstimate estimate = estimator_.estimate(frame);
         held.stats.motion = estimate.motion;
@@ -127,11 +126,15 @@ void Stabilizer::push(std::unique_ptr<FrameSlot> slot)
         held.stats.points = estimate.points;
         held.stats.inliers = estimate.inliers;
         held.stats.skipped = estimate.skipped;
+        // A lost view (scene cut, flash) starts a new path: smoothing must not pull the
+        // frames of one scene towards those of another.
+        discontinuity_ = discontinuity_ || estimate.lost;
     } catch (const std::exception &) {
         // A frame the estimator cannot read gets no correction; tracking restarts.
         estimator_.reset();
         held.stats.skipped = true;
     }
+    held.stats.segment_start = discontinuity_;
     held.stats.index = trajectory_.append(held.stats.motion, discontinuity_);
     held.stats.trajectory = trajectory_.pose(held.stats.index);
     discontinuity_ = false;

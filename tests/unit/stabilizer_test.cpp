@@ -242,3 +242,52 @@ TEST(Stabilizer, InvalidInputIsRejected)
     c.crop = 0.9;
     EXPECT_THROW(Stabilizer{c}, std::invalid_argument);
 }
+
+TEST(Stabilizer, SceneCutStartsANewPathThatDoesNotPullOnTheOldScene)
+{
+    synthetic::FlightOptions a, b;
+    a.frames = b.frames = 40;
+    b.seed = 9;
+    b.canvas = std::string(UAVSTAB_TEST_DATA_DIR) + "/aero3.jpg";
+    const synthetic::ShakyFlight first(a), second(b);
+
+    auto run = [&](bool with_second_scene) {
+        Stabilizer s(smallConfig(20));
+        std::vector<StabilizedFrame> frames;
+        roundTrip(s, with_second_scene ? 80 : 40,
+                  [&](int i) { return i < 40 ? first.render(i) : second.render(i - 40); }, &frames);
+        return frames;
+    };
+    const auto alone = run(false), cut = run(true);
+    ASSERT_EQ(cut.size(), 80u);
+    EXPECT_TRUE(cut[40].stats.segment_start);
+    EXPECT_TRUE(cut[40].stats.skipped);
+    EXPECT_FALSE(cut[41].stats.segment_start);
+    EXPECT_FALSE(cut[41].stats.skipped);
+    for (int i = 0; i < 40; ++i) {
+        // The first scene is corrected exactly as if the stream had ended at the cut.
+        EXPECT_NEAR(cut[std::size_t(i)].stats.correction.dx, alone[std::size_t(i)].stats.correction.dx, 1e-9) << i;
+        EXPECT_NEAR(cut[std::size_t(i)].stats.correction.angle, alone[std::size_t(i)].stats.correction.angle, 1e-12);
+    }
+}
+
+TEST(Stabilizer, FlashesAndBlackFramesNeverCrossASmoothingWindow)
+{
+    synthetic::FlightOptions options;
+    options.frames = 60;
+    const synthetic::ShakyFlight flight(options);
+    Stabilizer s(smallConfig(10));
+    std::vector<StabilizedFrame> frames;
+    const auto ids = roundTrip(s, 60, [&](int i) {
+        FrameBuffer f = flight.render(i);
+        if (i % 15 == 7)
+            f.fill(i % 2 ? 255 : 0);  // a flash
+        return f;
+    }, &frames);
+    EXPECT_EQ(ids, iota(60));
+    for (const auto &f : frames)
+        if (f.stats.index % 15 == 7) {
+            EXPECT_TRUE(f.stats.skipped);
+            EXPECT_TRUE(f.stats.segment_start);
+        }
+}

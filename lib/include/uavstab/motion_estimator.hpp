@@ -21,6 +21,10 @@ struct MotionEstimate {
     int inliers = 0;     // of those, the ones consistent with the fitted motion
     double rms = 0.0;    // RMS residual of the inliers, full-resolution pixels
     bool skipped = false;  // too few points or implausible motion: identity used
+    // Enough tracks entered the frame but too few could be followed, or the motion was
+    // implausible: the view changed (scene cut, flash, extreme motion). The camera path
+    // should start afresh here rather than smooth across the change.
+    bool lost = false;
     bool first = false;    // first frame of a sequence: nothing to compare with
 };
 
