@@ -309,6 +309,10 @@ void Stabilizer::reset()
     {
         std::unique_lock<std::mutex> lock(mutex_);
         waitForAllFinalized(lock);
+        // Release the frames here, not whenever a worker drops its last reference: the
+        // caller may rely on every frame being gone when reset() returns.
+        for (auto &pending : finalized_)
+            pending->slot.reset();
         finalized_.clear();
         if (next_config_) {
             config_ = *next_config_;
