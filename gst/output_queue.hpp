@@ -1,0 +1,42 @@
+// The element's output, in input order: frames (whose pixels the stabilizer still holds)
+// interleaved with the serialized events that arrived between them. An event waits
+// behind the frames queued before it, so SEGMENT, TAG, GAP, EOS... keep their place.
+//
+// Not thread-safe: the element guards it with its own mutex.
+#pragma once
+
+#include <cstddef>
+#include <deque>
+#include <memory>
+
+#include <gst/gst.h>
+
+struct EventUnref {
+    void operator()(GstEvent *event) const { gst_event_unref(event); }
+};
+using EventPtr = std::unique_ptr<GstEvent, EventUnref>;
+
+class OutputQueue {
+public:
+    // The next result the stabilizer hands back (it returns frames in push order).
+    void pushFrame() { items_.emplace_back(); }
+    void pushEvent(EventPtr event) { items_.push_back(std::move(event)); }
+
+    bool empty() const { return items_.empty(); }
+    std::size_t size() const { return items_.size(); }
+    bool frontIsFrame() const { return !items_.empty() && !items_.front(); }
+    bool frontIsEvent() const { return !items_.empty() && items_.front(); }
+
+    void popFrame() { items_.pop_front(); }
+    EventPtr popEvent()
+    {
+        EventPtr event = std::move(items_.front());
+        items_.pop_front();
+        return event;
+    }
+    // Drops every item; queued events are released.
+    void clear() { items_.clear(); }
+
+private:
+    std::deque<EventPtr> items_;  // null = a frame
+};

@@ -1,0 +1,52 @@
+#include "uavstabilize_enums.hpp"
+
+#include "uavstab/config.hpp"
+
+namespace {
+
+// Registers an enum type once, thread-safely.
+GType registerEnum(gsize *once, const char *name, const GEnumValue *values)
+{
+    if (g_once_init_enter(once)) {
+        const GType type = g_enum_register_static(name, values);
+        g_once_init_leave(once, type);
+    }
+    return GType(*once);
+}
+
+} // namespace
+
+GType uavstabilize_smoother_get_type()
+{
+    static gsize type = 0;
+    static const GEnumValue values[] = {
+        {int(uavstab::SmootherKind::Box), "Moving average of the camera path", "box"},
+        {int(uavstab::SmootherKind::Gaussian), "Gaussian-weighted average (sigma = radius / 2)", "gaussian"},
+        {0, nullptr, nullptr},
+    };
+    return registerEnum(&type, "GstUavStabilizeSmoother", values);
+}
+
+GType uavstabilize_model_get_type()
+{
+    static gsize type = 0;
+    static const GEnumValue values[] = {
+        {int(uavstab::ModelChoice::Hybrid), "Rigid or similarity, re-chosen every dwell frames", "hybrid"},
+        {int(uavstab::ModelChoice::Rigid), "Rigid: translation and rotation (3 DOF)", "rigid"},
+        {int(uavstab::ModelChoice::Similarity), "Similarity: translation, rotation and scale (4 DOF)",
+         "similarity"},
+        {0, nullptr, nullptr},
+    };
+    return registerEnum(&type, "GstUavStabilizeModel", values);
+}
+
+GType uavstabilize_border_get_type()
+{
+    static gsize type = 0;
+    static const GEnumValue values[] = {
+        {int(uavstab::BorderMode::Black), "Uncovered pixels are black", "black"},
+        {int(uavstab::BorderMode::Replicate), "Uncovered pixels repeat the nearest edge pixel", "replicate"},
+        {0, nullptr, nullptr},
+    };
+    return registerEnum(&type, "GstUavStabilizeBorder", values);
+}

@@ -1,0 +1,13 @@
+// GEnum types for the element's enum properties, so that gst-launch and gst-inspect
+// know them by nick ("box", "gaussian", ...). Values are the library's enum values.
+#pragma once
+
+#include <glib-object.h>
+
+#define UAVSTABILIZE_TYPE_SMOOTHER (uavstabilize_smoother_get_type())
+#define UAVSTABILIZE_TYPE_MODEL (uavstabilize_model_get_type())
+#define UAVSTABILIZE_TYPE_BORDER (uavstabilize_border_get_type())
+
+GType uavstabilize_smoother_get_type();  // uavstab::SmootherKind
+GType uavstabilize_model_get_type();     // uavstab::ModelChoice
+GType uavstabilize_border_get_type();    // uavstab::BorderMode
