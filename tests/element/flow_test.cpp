@@ -1,0 +1,492 @@
+// The element's dataflow contract: every frame comes out once, in order, with its
+// metadata; events keep their place; flushes, caps changes, draining, latency, bypass
+// and broken input behave.
+#include <algorithm>
+#include <chrono>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "test_support.hpp"
+
+using namespace element_test;
+
+namespace {
+
+constexpr int kDelay = 20;  // the element's default
+
+// Flags a source might set; the element must hand them on untouched.
+guint inputFlags(int index)
+{
+    guint flags = 0;
+    if (index == 0)
+        flags |= GST_BUFFER_FLAG_DISCONT;
+    if (index % 3 == 1)
+        flags |= GST_BUFFER_FLAG_DELTA_UNIT;
+    if (index % 5 == 2)
+        flags |= GST_BUFFER_FLAG_MARKER;
+    return flags;
+}
+
+GstHarness *smallHarness(const std::string &properties, const char *format = "I420", int width = 64,
+                         int height = 48)
+{
+    GstHarness *h = makeHarness(makeStabilizer("threads=2 " + properties));
+    gst_harness_set_src_caps(h, videoCaps(format, width, height));
+    gst_harness_set_drop_buffers(h, TRUE);  // the log keeps what the tests look at
+    return h;
+}
+
+void pushFrames(GstHarness *h, const GstVideoInfo &info, int first, int count)
+{
+    for (int i = first; i < first + count; ++i) {
+        GstBuffer *buffer = makeFrame(info, i);
+        GST_BUFFER_FLAGS(buffer) = inputFlags(i);
+        fail_unless_equals_int(gst_harness_push(h, buffer), GST_FLOW_OK);
+    }
+}
+
+int indexOfEvent(const std::vector<LoggedItem> &items, GstEventType type, int from = 0)
+{
+    for (int i = from; i < int(items.size()); ++i)
+        if (!items[i].is_buffer && items[i].event_type == type)
+            return i;
+    return -1;
+}
+
+int indexOfBuffer(const std::vector<LoggedItem> &items, guint64 offset)
+{
+    for (int i = 0; i < int(items.size()); ++i)
+        if (items[i].is_buffer && items[i].offset == offset)
+            return i;
+    return -1;
+}
+
+void checkStream(int length)
+{
+    GstHarness *h = smallHarness("");
+    StreamLog log(h->sinkpad);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+
+    pushFrames(h, info, 0, length);
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos(), "no EOS for a stream of %d frames", length);
+
+    const std::vector<LoggedItem> items = log.items();
+    const std::vector<LoggedItem> buffers = log.buffers();
+    fail_unless_equals_int(int(buffers.size()), length);
+    for (int i = 0; i < length; ++i) {
+        const LoggedItem &b = buffers[i];
+        const GstClockTime d = frameDuration();
+        fail_unless_equals_uint64(b.offset, guint64(i));
+        fail_unless_equals_uint64(b.offset_end, guint64(i) + 1);
+        fail_unless_equals_uint64(b.pts, i * d);
+        fail_unless_equals_uint64(b.dts, i * d);
+        fail_unless_equals_uint64(b.duration, d);
+        fail_unless_equals_int(b.flags & ~GST_BUFFER_FLAG_TAG_MEMORY, inputFlags(i));
+        fail_unless_equals_uint64(b.size, GST_VIDEO_INFO_SIZE(&info));
+    }
+    fail_unless(!items.back().is_buffer && items.back().event_type == GST_EVENT_EOS, "EOS is not last (length %d)",
+                length);
+    gst_harness_teardown(h);
+}
+
+} // namespace
+
+ELEMENT_TEST(every_frame_comes_out_once_in_order)
+{
+    for (int length : {0, 1, kDelay - 1, kDelay, kDelay + 1, 500})
+        checkStream(length);
+}
+
+ELEMENT_TEST(latency_adds_delay_frames)
+{
+    const GstClockTime upstream = 5 * GST_MSECOND;
+    for (int delay : {0, 1, 20}) {
+        GstHarness *h = smallHarness("delay=" + std::to_string(delay));
+        gst_harness_set_upstream_latency(h, upstream);
+        GstQuery *query = gst_query_new_latency();
+        fail_unless(gst_pad_peer_query(h->sinkpad, query));
+        gboolean live = FALSE;
+        GstClockTime min = 0, max = 0;
+        gst_query_parse_latency(query, &live, &min, &max);
+        fail_unless(live);
+        fail_unless_equals_uint64(min, upstream + delay * frameDuration(30, 1));
+        fail_unless_equals_uint64(max, GST_CLOCK_TIME_NONE);  // upstream has no maximum
+        gst_query_unref(query);
+        gst_harness_teardown(h);
+    }
+}
+
+ELEMENT_TEST(latency_without_framerate_uses_buffer_duration)
+{
+    GstHarness *h = makeHarness(makeStabilizer("threads=2 delay=10"));
+    gst_harness_set_src_caps(h, videoCaps("GRAY8", 64, 48, 0, 1));
+    gst_harness_set_drop_buffers(h, TRUE);
+    auto latency = [h] {
+        GstQuery *query = gst_query_new_latency();
+        fail_unless(gst_pad_peer_query(h->sinkpad, query));
+        GstClockTime min = 0;
+        gst_query_parse_latency(query, nullptr, &min, nullptr);
+        gst_query_unref(query);
+        return min;
+    };
+    // Nothing known yet: 30 fps is assumed.
+    fail_unless_equals_uint64(latency(), 10 * (GST_SECOND / 30));
+    GstCaps *caps = videoCaps("GRAY8", 64, 48, 0, 1);
+    GstBuffer *buffer = makeFrame(videoInfo(caps), 0);
+    gst_caps_unref(caps);
+    GST_BUFFER_DURATION(buffer) = 40 * GST_MSECOND;
+    fail_unless_equals_int(gst_harness_push(h, buffer), GST_FLOW_OK);
+    fail_unless_equals_uint64(latency(), 10 * 40 * GST_MSECOND);
+    gst_harness_teardown(h);
+}
+
+ELEMENT_TEST(delay_change_posts_latency_message)
+{
+    GstHarness *h = smallHarness("delay=5");
+    GstBus *bus = gst_bus_new();
+    gst_element_set_bus(h->element, bus);
+    g_object_set(h->element, "delay", 8u, nullptr);
+    GstMessage *message = popMessage(bus, GST_MESSAGE_LATENCY);
+    fail_unless(message != nullptr, "no latency message after a delay change");
+    gst_message_unref(message);
+    // The new delay is what LATENCY reports.
+    GstQuery *query = gst_query_new_latency();
+    fail_unless(gst_pad_peer_query(h->sinkpad, query));
+    GstClockTime min = 0;
+    gst_query_parse_latency(query, nullptr, &min, nullptr);
+    fail_unless_equals_uint64(min, 8 * frameDuration());
+    gst_query_unref(query);
+    gst_element_set_bus(h->element, nullptr);
+    gst_object_unref(bus);
+    gst_harness_teardown(h);
+}
+
+ELEMENT_TEST(serialized_events_keep_their_place)
+{
+    GstHarness *h = smallHarness("delay=5");
+    StreamLog log(h->sinkpad);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+
+    pushFrames(h, info, 0, 4);  // frames 0..3
+    fail_unless(gst_harness_push_event(h, gst_event_new_tag(gst_tag_list_new(GST_TAG_TITLE, "after-3", nullptr))));
+    pushFrames(h, info, 4, 4);  // frames 4..7
+    fail_unless(gst_harness_push_event(
+        h, gst_event_new_custom(GST_EVENT_CUSTOM_DOWNSTREAM, gst_structure_new_empty("after-7"))));
+    pushFrames(h, info, 8, 2);  // frames 8..9
+    fail_unless(gst_harness_push_event(h, gst_event_new_gap(10 * frameDuration(), frameDuration())));
+    pushFrames(h, info, 11, 3);  // frames 11..13
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+
+    const std::vector<LoggedItem> items = log.items();
+    const int tag = indexOfEvent(items, GST_EVENT_TAG);
+    const int custom = indexOfEvent(items, GST_EVENT_CUSTOM_DOWNSTREAM);
+    const int gap = indexOfEvent(items, GST_EVENT_GAP);
+    fail_unless(tag >= 0 && custom >= 0 && gap >= 0);
+    fail_unless(indexOfBuffer(items, 3) < tag && tag < indexOfBuffer(items, 4), "TAG is not between frames 3 and 4");
+    fail_unless(indexOfBuffer(items, 7) < custom && custom < indexOfBuffer(items, 8),
+                "custom event is not between frames 7 and 8");
+    fail_unless(indexOfBuffer(items, 9) < gap && gap < indexOfBuffer(items, 11), "GAP is not between frames 9 and 11");
+    fail_unless(gst_structure_has_name(gst_event_get_structure(items[custom].event), "after-7"));
+    fail_unless_equals_int(int(log.buffers().size()), 13);
+    gst_harness_teardown(h);
+}
+
+ELEMENT_TEST(flush_drops_held_frames_and_restarts)
+{
+    GstHarness *h = smallHarness("delay=5");
+    StreamLog log(h->sinkpad);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+
+    pushFrames(h, info, 0, 12);
+    // Let the frames that are already final come out, so the flush has both kinds.
+    fail_unless(log.waitForBuffers(12 - 5));
+    fail_unless(gst_harness_push_event(h, gst_event_new_flush_start()));
+    fail_unless(gst_harness_push_event(h, gst_event_new_flush_stop(TRUE)));
+    GstSegment segment;
+    gst_segment_init(&segment, GST_FORMAT_TIME);
+    fail_unless(gst_harness_push_event(h, gst_event_new_segment(&segment)));
+    pushFrames(h, info, 100, 10);
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+
+    const std::vector<LoggedItem> items = log.items();
+    const int flush_start = indexOfEvent(items, GST_EVENT_FLUSH_START);
+    const int flush_stop = indexOfEvent(items, GST_EVENT_FLUSH_STOP);
+    fail_unless(flush_start >= 0 && flush_stop > flush_start);
+    guint64 expected = 0;
+    for (int i = 0; i < flush_start; ++i)
+        if (items[i].is_buffer)
+            fail_unless_equals_uint64(items[i].offset, expected++);
+    fail_unless(expected >= 7 && expected <= 12);
+    for (int i = flush_start; i < flush_stop; ++i)
+        fail_unless(!items[i].is_buffer, "a buffer between FLUSH_START and FLUSH_STOP");
+    expected = 100;
+    for (int i = flush_stop; i < int(items.size()); ++i)
+        if (items[i].is_buffer)
+            fail_unless_equals_uint64(items[i].offset, expected++);  // no stale frame
+    fail_unless_equals_uint64(expected, 110);
+    gst_harness_teardown(h);
+}
+
+ELEMENT_TEST(caps_changes_keep_each_frame_with_its_caps)
+{
+    struct Group {
+        const char *format;
+        int width, height;
+    };
+    const Group groups[] = {{"I420", 640, 360}, {"I420", 1280, 720}, {"I420", 320, 240}, {"BGRx", 320, 240}};
+    constexpr int kFramesPerGroup = 6;
+    GstHarness *h = makeHarness(makeStabilizer("threads=2 delay=3 analysis-width=160"));
+    gst_harness_set_drop_buffers(h, TRUE);
+    StreamLog log(h->sinkpad);
+    int index = 0;
+    for (const Group &g : groups) {
+        GstCaps *caps = videoCaps(g.format, g.width, g.height);
+        const GstVideoInfo info = videoInfo(caps);
+        gst_harness_set_src_caps(h, caps);
+        for (int i = 0; i < kFramesPerGroup; ++i, ++index)
+            fail_unless_equals_int(gst_harness_push(h, makeFrame(info, index)), GST_FLOW_OK);
+    }
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+
+    const std::vector<GstCaps *> caps = log.caps();
+    fail_unless_equals_int(int(caps.size()), 4);
+    const std::vector<LoggedItem> buffers = log.buffers();
+    fail_unless_equals_int(int(buffers.size()), 4 * kFramesPerGroup);
+    for (int i = 0; i < int(buffers.size()); ++i) {
+        const LoggedItem &b = buffers[i];
+        fail_unless_equals_uint64(b.offset, guint64(i));
+        fail_unless_equals_int(b.caps_index, i / kFramesPerGroup);  // went out after its own caps
+        const GstVideoInfo info = videoInfo(caps[b.caps_index]);
+        fail_unless_equals_uint64(b.size, GST_VIDEO_INFO_SIZE(&info));
+        fail_unless_equals_string(GST_VIDEO_INFO_NAME(&info), groups[i / kFramesPerGroup].format);
+        fail_unless_equals_int(GST_VIDEO_INFO_WIDTH(&info), groups[i / kFramesPerGroup].width);
+    }
+    gst_harness_teardown(h);
+}
+
+ELEMENT_TEST(same_caps_again_is_just_forwarded)
+{
+    GstHarness *h = smallHarness("delay=4");
+    StreamLog log(h->sinkpad);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    pushFrames(h, info, 0, 6);
+    // Equal caps do not flush the held frames: they queue like any serialized event.
+    fail_unless(gst_pad_push_event(h->srcpad, gst_event_new_caps(caps)));
+    gst_caps_unref(caps);
+    pushFrames(h, info, 6, 6);
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+    fail_unless_equals_int(int(log.buffers().size()), 12);
+    gst_harness_teardown(h);
+}
+
+ELEMENT_TEST(drain_query_pushes_every_held_frame)
+{
+    GstHarness *h = smallHarness("delay=8");
+    StreamLog log(h->sinkpad);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+    pushFrames(h, info, 0, 5);  // all held: fewer than the delay
+    GstQuery *drain = gst_query_new_drain();
+    fail_unless(gst_pad_peer_query(h->srcpad, drain));
+    gst_query_unref(drain);
+    fail_unless_equals_int(int(log.buffers().size()), 5);  // out before the answer
+    pushFrames(h, info, 5, 3);
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+    fail_unless_equals_int(int(log.buffers().size()), 8);
+    gst_harness_teardown(h);
+}
+
+namespace {
+
+// Pushes `delay` frames (none may come out), then one more (exactly the first comes out).
+void checkDelay(GstHarness *h, StreamLog &log, const GstVideoInfo &info, int delay, std::vector<GstBuffer *> &inputs)
+{
+    for (int i = 0; i < delay; ++i) {
+        inputs.push_back(makeFrame(info, i));
+        fail_unless_equals_int(gst_harness_push(h, gst_buffer_ref(inputs.back())), GST_FLOW_OK);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    fail_unless_equals_int(int(log.buffers().size()), 0);
+    inputs.push_back(makeFrame(info, delay));
+    fail_unless_equals_int(gst_harness_push(h, gst_buffer_ref(inputs.back())), GST_FLOW_OK);
+    fail_unless(log.waitForBuffers(1));
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    fail_unless_equals_int(int(log.buffers().size()), 1);
+    fail_unless_equals_uint64(log.buffers()[0].offset, 0);
+}
+
+} // namespace
+
+ELEMENT_TEST(bypass_outputs_the_input_buffers_with_the_same_delay)
+{
+    constexpr int kBypassDelay = 4;
+    GstCaps *caps = videoCaps("NV12", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+    for (bool bypass : {true, false}) {
+        GstHarness *h = smallHarness(std::string("delay=4 bypass=") + (bypass ? "true" : "false"), "NV12");
+        StreamLog log(h->sinkpad);
+        std::vector<GstBuffer *> inputs;
+        checkDelay(h, log, info, kBypassDelay, inputs);
+        for (int i = kBypassDelay + 1; i < 12; ++i) {
+            inputs.push_back(makeFrame(info, i));
+            fail_unless_equals_int(gst_harness_push(h, gst_buffer_ref(inputs.back())), GST_FLOW_OK);
+        }
+        fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+        fail_unless(log.waitForEos());
+        const std::vector<LoggedItem> buffers = log.buffers();
+        fail_unless_equals_int(int(buffers.size()), int(inputs.size()));
+        for (std::size_t i = 0; i < inputs.size(); ++i) {
+            // Inputs are still alive (we hold them), so pointers are unique.
+            if (bypass)
+                fail_unless(buffers[i].identity == inputs[i], "frame %zu is not the input buffer", i);
+            else
+                fail_unless(buffers[i].identity != inputs[i], "frame %zu was not warped", i);
+        }
+        for (GstBuffer *buffer : inputs)
+            gst_buffer_unref(buffer);
+        gst_harness_teardown(h);
+    }
+}
+
+ELEMENT_TEST(toggling_bypass_never_reorders)
+{
+    GstHarness *h = smallHarness("delay=6");
+    StreamLog log(h->sinkpad);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+    for (int i = 0; i < 40; ++i) {
+        if (i % 7 == 3)
+            g_object_set(h->element, "bypass", gboolean((i / 7) % 2 == 0), nullptr);
+        fail_unless_equals_int(gst_harness_push(h, makeFrame(info, i)), GST_FLOW_OK);
+    }
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+    const std::vector<LoggedItem> buffers = log.buffers();
+    fail_unless_equals_int(int(buffers.size()), 40);
+    for (int i = 0; i < 40; ++i)
+        fail_unless_equals_uint64(buffers[i].offset, guint64(i));
+    gst_harness_teardown(h);
+}
+
+ELEMENT_TEST(short_buffer_is_an_error_not_a_crash)
+{
+    GstHarness *h = smallHarness("delay=2");
+    GstBus *bus = gst_bus_new();
+    gst_element_set_bus(h->element, bus);
+    GstBuffer *buffer = gst_buffer_new_allocate(nullptr, 100, nullptr);  // 64x48 I420 needs 4608
+    stampFrame(buffer, 0);
+    fail_unless_equals_int(gst_harness_push(h, buffer), GST_FLOW_ERROR);
+    GstMessage *message = popMessage(bus, GST_MESSAGE_ERROR);
+    fail_unless(message != nullptr, "no error message");
+    GError *error = nullptr;
+    gchar *debug = nullptr;
+    gst_message_parse_error(message, &error, &debug);
+    fail_unless(g_strrstr(error->message, "buffer too small for caps") != nullptr, "error: %s", error->message);
+    g_error_free(error);
+    g_free(debug);
+    gst_message_unref(message);
+    gst_element_set_bus(h->element, nullptr);
+    gst_object_unref(bus);
+    gst_harness_teardown(h);
+}
+
+ELEMENT_TEST(properties_have_the_documented_defaults)
+{
+    GstElement *element = makeStabilizer();
+    guint delay = 0, radius = 0, corners = 0, redetect = 0, dwell = 0, min_points = 0, width = 0, threads = 99;
+    gdouble roi = 0, crop = 0;
+    gint smoother = -1, model = -1, border = -1;
+    gboolean bypass = TRUE, post = TRUE;
+    g_object_get(element, "delay", &delay, "smoothing-radius", &radius, "max-corners", &corners, "redetect-interval",
+                 &redetect, "dwell", &dwell, "min-points", &min_points, "analysis-width", &width, "threads", &threads,
+                 "roi", &roi, "crop", &crop, "smoother", &smoother, "model", &model, "border", &border, "bypass",
+                 &bypass, "post-messages", &post, nullptr);
+    fail_unless_equals_int(delay, 20);
+    fail_unless_equals_int(radius, 10);
+    fail_unless_equals_int(corners, 50);
+    fail_unless_equals_int(redetect, 5);
+    fail_unless_equals_int(dwell, 20);
+    fail_unless_equals_int(min_points, 10);
+    fail_unless_equals_int(width, 640);
+    fail_unless_equals_int(threads, 0);
+    fail_unless_equals_float(roi, 0.8);
+    fail_unless_equals_float(crop, 0.08);
+    fail_unless(!bypass && !post);
+    // Enums are known by their nicks, as gst-launch spells them.
+    setProperties(element, "smoother=gaussian model=similarity border=replicate");
+    g_object_get(element, "smoother", &smoother, "model", &model, "border", &border, nullptr);
+    GEnumClass *klass = G_ENUM_CLASS(g_type_class_ref(G_PARAM_SPEC_VALUE_TYPE(
+        g_object_class_find_property(G_OBJECT_GET_CLASS(element), "smoother"))));
+    fail_unless_equals_string(g_enum_get_value(klass, smoother)->value_nick, "gaussian");
+    g_type_class_unref(klass);
+    fail_unless_equals_int(model, 2);
+    fail_unless_equals_int(border, 1);
+    GstElementFactory *factory = gst_element_get_factory(element);
+    fail_unless_equals_string(gst_element_factory_get_metadata(factory, GST_ELEMENT_METADATA_KLASS),
+                              "Filter/Effect/Video");
+    fail_unless(g_strrstr(gst_element_factory_get_metadata(factory, GST_ELEMENT_METADATA_DESCRIPTION),
+                          "gst-launch-1.0") != nullptr);
+    gst_object_unref(element);
+}
+
+GST_START_TEST(warm_up)
+{
+    GstHarness *h = smallHarness("delay=1");
+    StreamLog log(h->sinkpad);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    pushFrames(h, videoInfo(caps), 0, 3);
+    gst_caps_unref(caps);
+    gst_harness_push_event(h, gst_event_new_eos());
+    fail_unless(log.waitForEos());
+    gst_harness_teardown(h);
+}
+GST_END_TEST;
+
+namespace {
+
+Suite *flowSuite()
+{
+    Suite *s = suite_create("uavstabilize-flow");
+    TCase *tc = makeTestCase("flow");
+    suite_add_tcase(s, tc);
+    tcase_add_test(tc, warm_up);
+    tcase_add_test(tc, every_frame_comes_out_once_in_order);
+    tcase_add_test(tc, latency_adds_delay_frames);
+    tcase_add_test(tc, latency_without_framerate_uses_buffer_duration);
+    tcase_add_test(tc, delay_change_posts_latency_message);
+    tcase_add_test(tc, serialized_events_keep_their_place);
+    tcase_add_test(tc, flush_drops_held_frames_and_restarts);
+    tcase_add_test(tc, caps_changes_keep_each_frame_with_its_caps);
+    tcase_add_test(tc, same_caps_again_is_just_forwarded);
+    tcase_add_test(tc, drain_query_pushes_every_held_frame);
+    tcase_add_test(tc, bypass_outputs_the_input_buffers_with_the_same_delay);
+    tcase_add_test(tc, toggling_bypass_never_reorders);
+    tcase_add_test(tc, short_buffer_is_an_error_not_a_crash);
+    tcase_add_test(tc, properties_have_the_documented_defaults);
+    return s;
+}
+
+} // namespace
+
+int main(int argc, char **argv)
+{
+    gst_check_init(&argc, &argv);
+    return runSuite(flowSuite()) == 0 ? 0 : 1;
+}
