@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "bilinear_warp.hpp"
 #include "luma_extractor.hpp"
 
 namespace uavstab {
@@ -84,13 +85,19 @@ void FrameWarper::warpRows(const FrameView &in, const FrameView &out, const Simi
         cv::Mat dst = planeMat(out, p).rowRange(y0, y1);
         double m[6];
         planeMatrix(in, p, output_to_input, m);
-        // The stripe's first row is row y0 of the plane: shift the mapping accordingly.
+        const cv::Scalar black = blackFor(in.format, p);
+        const std::uint8_t border_value[4] = {std::uint8_t(black[0]), std::uint8_t(black[1]), std::uint8_t(black[2]),
+                                              std::uint8_t(black[3])};
+        const PlaneSpan span{in.planes[p].data, in.planes[p].stride, in.planeWidth(p), in.planeHeight(p)};
+        if (warpPlaneBilinear(span, out.planes[p].data, out.planes[p].stride, out.planeWidth(p), y0, y1,
+                              layout.channels, m, border_ == BorderMode::Replicate, border_value))
+            continue;
+        // General path. The stripe's first row is row y0 of the plane: shift the mapping.
         m[2] += m[1] * y0;
         m[5] += m[4] * y0;
         const cv::Mat matrix(2, 3, CV_64F, m);
         const int border = border_ == BorderMode::Replicate ? cv::BORDER_REPLICATE : cv::BORDER_CONSTANT;
-        cv::warpAffine(src, dst, matrix, dst.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, border,
-                       blackFor(in.format, p));
+        cv::warpAffine(src, dst, matrix, dst.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, border, black);
     }
 }
 

@@ -1,0 +1,219 @@
+#include "bilinear_warp.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define UAVSTAB_HAVE_X86 1
+#endif
+
+namespace uavstab {
+
+namespace {
+
+constexpr int kFracBits = 6;  // 1/64 pixel
+constexpr int kOne = 1 << kFracBits;
+
+// One output pixel, any position: taps outside the frame read the border (constant) or
+// the nearest edge pixel (replicate). The arithmetic matches the SIMD path.
+inline void samplePixel(const PlaneSpan &src, int channels, double sx, double sy, bool replicate,
+                        const std::uint8_t *border, std::uint8_t *out)
+{
+    if (std::isnan(sx) || std::isnan(sy)) {
+        for (int c = 0; c < channels; ++c)
+            out[c] = border[c];
+        return;
+    }
+    // Far outside is as good as just outside (keeps the integer maths in range).
+    const double qx = std::clamp(std::floor(sx * kOne), -2.0 * kOne, (src.width + 1.0) * kOne);
+    const double qy = std::clamp(std::floor(sy * kOne), -2.0 * kOne, (src.height + 1.0) * kOne);
+    const long lx = long(qx), ly = long(qy);
+    const long ix = lx >> kFracBits, iy = ly >> kFracBits;
+    const int fx = int(lx & (kOne - 1)), fy = int(ly & (kOne - 1));
+    for (int c = 0; c < channels; ++c) {
+        int p[2][2];
+        for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx) {
+                long x = ix + dx, y = iy + dy;
+                const bool inside = x >= 0 && y >= 0 && x < src.width && y < src.height;
+                if (!inside && !replicate) {
+                    p[dy][dx] = border[c];
+                    continue;
+                }
+                x = std::clamp(x, 0L, long(src.width) - 1);
+                y = std::clamp(y, 0L, long(src.height) - 1);
+                p[dy][dx] = src.data[y * src.stride + x * channels + c];
+            }
+        const int t = p[0][0] * (kOne - fx) + p[0][1] * fx;
+        const int b = p[1][0] * (kOne - fx) + p[1][1] * fx;
+        const int v = t + (((b - t) * (fy << 9) + (1 << 14)) >> 15);
+        out[c] = std::uint8_t(std::clamp((v + kOne / 2) >> kFracBits, 0, 255));
+    }
+}
+
+#ifdef UAVSTAB_HAVE_X86
+
+// A chunk is 16 output pixels: 16 / C pixels per 256-bit vector of 16-bit lanes, so
+// C vectors. For lane l of vector v (pixel j = v * 16 / C + l / C, channel l % C): the
+// source offset of pixel j from the chunk's first pixel, in 1/1024 px.
+constexpr int kChunk = 16;
+
+struct LaneSteps {
+    alignas(32) std::int16_t offset_x[4][16];
+    alignas(32) std::int16_t offset_y[4][16];
+    alignas(32) std::int16_t channel[16];
+    alignas(32) std::int16_t is_high_half[16];
+    int vectors;       // C
+    int half_pixels;   // pixels per 128-bit half: 8 / C
+};
+
+__attribute__((target("avx2"))) inline __m256i load2(const std::uint8_t *lo, const std::uint8_t *hi)
+{
+    return _mm256_inserti128_si256(_mm256_castsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i *>(lo))),
+                                   _mm_loadu_si128(reinterpret_cast<const __m128i *>(hi)), 1);
+}
+
+// Horizontal taps of two source rows, then the vertical blend (16-bit lanes, x64).
+__attribute__((target("avx2"))) inline __m256i interpolateRows(const std::uint8_t *top, const std::uint8_t *bottom,
+                                                               int byte0, int byte1, __m256i ctrl, __m256i wx,
+                                                               __m256i fy_scaled)
+{
+    const __m256i t = _mm256_maddubs_epi16(_mm256_shuffle_epi8(load2(top + byte0, top + byte1), ctrl), wx);
+    const __m256i b = _mm256_maddubs_epi16(_mm256_shuffle_epi8(load2(bottom + byte0, bottom + byte1), ctrl), wx);
+    return _mm256_add_epi16(t, _mm256_mulhrs_epi16(_mm256_sub_epi16(b, t), fy_scaled));
+}
+
+__attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
+                                                  int dst_width, int row_begin, int row_end, int channels,
+                                                  const double m[6], bool replicate, const std::uint8_t border[4],
+                                                  const LaneSteps &steps)
+{
+    const int H = steps.half_pixels;
+    const __m256i channel = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.channel));
+    const __m256i is_high = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.is_high_half));
+    const __m256i frac_mask = _mm256_set1_epi16(kOne - 1);
+    const __m256i one = _mm256_set1_epi16(kOne);
+    const __m256i round = _mm256_set1_epi16(kOne / 2);
+    const __m256i chans = _mm256_set1_epi16(std::int16_t(channels));
+    const __m256i next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
+    const double last_x = m[0] * (kChunk - 1), last_y = m[3] * (kChunk - 1);
+    const int row_bytes = src.width * channels;
+    const int last_window = steps.offset_x[steps.vectors - 1][H * channels];
+
+    auto scalar = [&](std::uint8_t *out, int x, int y, int count) {
+        for (int j = 0; j < count; ++j)
+            samplePixel(src, channels, m[0] * (x + j) + m[1] * y + m[2], m[3] * (x + j) + m[4] * y + m[5], replicate,
+                        border, out + (x + j) * channels);
+    };
+
+    for (int y = row_begin; y < row_end; ++y) {
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        int x = 0;
+        for (; x + kChunk <= dst_width; x += kChunk) {
+            const double sx0 = m[0] * x + m[1] * y + m[2];
+            const double sy0 = m[3] * x + m[4] * y + m[5];
+            const double sx1 = sx0 + last_x, sy1 = sy0 + last_y;
+            // Every tap inside the frame (linear, so the chunk's ends bound it)...
+            if (!(std::min(sx0, sx1) >= 0.0 && std::max(sx0, sx1) < src.width - 1 && std::min(sy0, sy1) >= 0.0 &&
+                  std::max(sy0, sy1) < src.height - 1)) {
+                scalar(out, x, y, kChunk);
+                continue;
+            }
+            const int ix0 = int(sx0), iy0 = int(std::floor(sy0));
+            const int frx = int((sx0 - ix0) * 1024.0), fry = int((sy0 - iy0) * 1024.0);
+            const int ky_last = (fry + steps.offset_y[steps.vectors - 1][15]) >> 10;
+            const int ky_min = std::min(0, ky_last), ky_max = std::max(0, ky_last);
+            // ...every window read inside its row, at most one row step in the chunk.
+            if ((ix0 + ((frx + last_window) >> 10)) * channels + 16 > row_bytes || ky_max - ky_min > 1 ||
+                iy0 + ky_max + 1 >= src.height || iy0 + ky_min < 0) {
+                scalar(out, x, y, kChunk);
+                continue;
+            }
+            const std::uint8_t *row = src.data + std::size_t(iy0 + ky_min) * src.stride;
+            const __m256i frx_v = _mm256_set1_epi16(std::int16_t(frx));
+            const __m256i fry_v = _mm256_set1_epi16(std::int16_t(fry));
+            const __m256i ky_step = _mm256_set1_epi16(std::int16_t(ky_max));
+            for (int v = 0; v < steps.vectors; ++v) {
+                const __m256i rel_x =
+                    _mm256_add_epi16(frx_v, _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_x[v])));
+                const __m256i rel_y =
+                    _mm256_add_epi16(fry_v, _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_y[v])));
+                // Each half reads a window that starts at its first pixel's left tap.
+                const int k0 = (frx + steps.offset_x[v][0]) >> 10;
+                const int k1 = (frx + steps.offset_x[v][H * channels]) >> 10;
+                const __m256i kx = _mm256_srli_epi16(rel_x, 10);
+                const __m256i fx = _mm256_and_si256(_mm256_srli_epi16(rel_x, 10 - kFracBits), frac_mask);
+                const __m256i fy = _mm256_and_si256(_mm256_srai_epi16(rel_y, 10 - kFracBits), frac_mask);
+                const __m256i window_k = _mm256_add_epi16(
+                    _mm256_set1_epi16(std::int16_t(k0)), _mm256_mullo_epi16(is_high, _mm256_set1_epi16(std::int16_t(k1 - k0))));
+                // Shuffle control: byte of the left tap in the lane's window, right tap one pixel on.
+                const __m256i left =
+                    _mm256_add_epi16(_mm256_mullo_epi16(_mm256_sub_epi16(kx, window_k), chans), channel);
+                const __m256i ctrl = _mm256_add_epi16(left, _mm256_add_epi16(_mm256_slli_epi16(left, 8), next_tap));
+                const __m256i wx = _mm256_or_si256(_mm256_sub_epi16(one, fx), _mm256_slli_epi16(fx, 8));
+                const __m256i fy_scaled = _mm256_slli_epi16(fy, 9);
+                const int byte0 = (ix0 + k0) * channels, byte1 = (ix0 + k1) * channels;
+
+                __m256i value = interpolateRows(row, row + src.stride, byte0, byte1, ctrl, wx, fy_scaled);
+                if (ky_max != ky_min) {
+                    const __m256i lower = interpolateRows(row + src.stride, row + 2 * std::size_t(src.stride), byte0,
+                                                          byte1, ctrl, wx, fy_scaled);
+                    const __m256i ky = _mm256_srai_epi16(rel_y, 10);
+                    value = _mm256_blendv_epi8(value, lower, _mm256_cmpeq_epi16(ky, ky_step));
+                }
+                const __m256i result = _mm256_srli_epi16(_mm256_add_epi16(value, round), kFracBits);
+                const __m256i packed = _mm256_permute4x64_epi64(_mm256_packus_epi16(result, result), 0x08);
+                _mm_storeu_si128(reinterpret_cast<__m128i *>(out + x * channels + v * 16),
+                                 _mm256_castsi256_si128(packed));
+            }
+        }
+        scalar(out, x, y, dst_width - x);
+    }
+}
+
+bool cpuHasAvx2()
+{
+    static const bool has = __builtin_cpu_supports("avx2");
+    return has;
+}
+
+#endif // UAVSTAB_HAVE_X86
+
+} // namespace
+
+bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                       int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4])
+{
+#ifdef UAVSTAB_HAVE_X86
+    // Four-channel pixels fill a vector with only 4 pixels; measured no faster than
+    // OpenCV there, so only planar luma/chroma (1) and interleaved chroma (2) come here.
+    if (!cpuHasAvx2() || (channels != 1 && channels != 2))
+        return false;
+    // The window trick needs the source to advance forwards by at most 1.25 px per output
+    // pixel and to cross at most one source row per chunk.
+    if (!(m[0] > 0.0 && m[0] <= 1.25 && std::abs(m[3]) * (kChunk - 1) <= 0.9 && src.width >= kChunk + 2))
+        return false;
+    LaneSteps steps{};
+    steps.vectors = channels;
+    steps.half_pixels = 8 / channels;
+    for (int v = 0; v < channels; ++v)
+        for (int l = 0; l < 16; ++l) {
+            const int j = v * (16 / channels) + l / channels;
+            steps.offset_x[v][l] = std::int16_t(std::lround(j * m[0] * 1024.0));
+            steps.offset_y[v][l] = std::int16_t(std::lround(j * m[3] * 1024.0));
+        }
+    for (int l = 0; l < 16; ++l) {
+        steps.channel[l] = std::int16_t(l % channels);
+        steps.is_high_half[l] = std::int16_t(l >= 8);
+    }
+    warpRowsAvx2(src, dst, dst_stride, dst_width, row_begin, row_end, channels, m, replicate, border, steps);
+    return true;
+#else
+    (void)src, (void)dst, (void)dst_stride, (void)dst_width, (void)row_begin, (void)row_end, (void)channels, (void)m,
+        (void)replicate, (void)border;
+    return false;
+#endif
+}
+
+} // namespace uavstab

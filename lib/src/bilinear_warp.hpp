@@ -1,0 +1,28 @@
+// Internal: a fast bilinear resampler for one 8-bit plane under an affine map that is
+// close to a similarity (the stabilizer's case: rotation of a few degrees, scale near 1).
+//
+// OpenCV's warpAffine spends most of its time computing and gathering source
+// coordinates pixel by pixel. Here, along an output row the source advances by a nearly
+// constant step, so 16 output bytes read from one 16-byte window per source row: a byte
+// shuffle replaces the gather (AVX2). Positions are quantised to 1/64 pixel (OpenCV:
+// 1/32). Pixels whose taps leave the frame or the window take the scalar path.
+#pragma once
+
+#include <cstdint>
+
+namespace uavstab {
+
+struct PlaneSpan {
+    const std::uint8_t *data;
+    int stride;
+    int width;   // pixels
+    int height;
+};
+
+// dst(x, y) = src(m * (x, y, 1)) for dst rows [row_begin, row_end), `channels` interleaved
+// bytes per pixel (1 or 2: luma and chroma planes). Returns false, having written nothing, when this CPU or this transform
+// is not handled (the caller then uses a general warp).
+bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                       int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4]);
+
+} // namespace uavstab
