@@ -1,0 +1,172 @@
+// Speed and latency of the uavstabilize element in a pipeline:
+//   appsrc (frames made in memory beforehand) ! uavstabilize ! fakesink sync=false
+//
+//   uavstab-bench-element --out DIR [--quick] [--only throughput|latency]...
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <thread>
+
+#include "common.hpp"
+#include "gst_bench.hpp"
+
+using namespace uavstab;
+using namespace bench;
+
+namespace {
+
+double elementRun(const GstFrames &frames, long pushes, int threads, std::string *error)
+{
+    ElementRun run(frames, "threads=" + std::to_string(threads));
+    run.start();
+    const auto t0 = Clock::now();
+    for (long k = 0; k < pushes; ++k)
+        run.push(k);
+    const bool ok = run.finish();
+    const double s = secondsBetween(t0, Clock::now());
+    if (!ok || run.received() != pushes) {
+        *error = ok ? format("received %ld of %ld frames", run.received(), pushes) : run.error();
+        return std::nan("");
+    }
+    if (run.passedThrough() > 0) {
+        *error = format("%ld of %ld frames came out unwarped (input buffer passed through)", run.passedThrough(),
+                        pushes);
+        return std::nan("");
+    }
+    return double(pushes) / s;
+}
+
+void sectionThroughput(const Options &o, const std::vector<ResolutionPlan> &plans,
+                       std::map<std::string, std::vector<cv::Mat>> &bgr)
+{
+    Fragment frag(o, "speed_element");
+    const int runs = o.quick ? 3 : 5;
+    frag.text(format("Element in a pipeline: `appsrc (frames made in memory beforehand, is-live=false, block=true, "
+                     "3 frames queued at most) ! uavstabilize threads=N ! fakesink sync=false`, default properties "
+                     "otherwise. Frames/s from the first push to EOS at the sink (a new pipeline per run, so each "
+                     "run includes the element's start-up and the drain of the %s-frame delay), median (min-max) "
+                     "of %d runs after one warm-up run.",
+                     "20", runs));
+    Table t({"resolution", "format", "threads", "frames/run", "fps median (min-max)", "ms/frame"});
+    for (const ResolutionPlan &p : plans) {
+        for (PixelFormat fmt : {PixelFormat::I420, PixelFormat::BGRx}) {
+            const GstFrames frames(framesFromBgr(bgr[p.res.name()], fmt), 30);
+            for (int threads : {1, 2}) {
+                std::string error;
+                elementRun(frames, std::min<long>(p.pushes / 2, 60), threads, &error);  // warm-up
+                std::vector<double> fps;
+                for (int r = 0; r < runs && error.empty(); ++r) {
+                    const double v = elementRun(frames, p.pushes, threads, &error);
+                    if (error.empty())
+                        fps.push_back(v);
+                }
+                if (!error.empty()) {
+                    frag.text(format("**Element run failed** at %s %s threads=%d: %s", p.res.name().c_str(),
+                                     formatName(fmt), threads, error.c_str()));
+                    continue;
+                }
+                const double med = median(fps);
+                t.row({p.res.name(), formatName(fmt), std::to_string(threads), std::to_string(p.pushes),
+                       spread(fps, "%.0f"), format("%.2f", 1000.0 / med)});
+                const std::string key =
+                    format("element.fps.%s.%s.t%d", p.res.name().c_str(), formatName(fmt), threads);
+                putResult(o, key, med);
+                putResult(o, key + ".min", minOf(fps));
+                putResult(o, key + ".max", maxOf(fps));
+                std::printf("  element %s %s threads=%d: %s fps\n", p.res.name().c_str(), formatName(fmt), threads,
+                            spread(fps).c_str());
+                std::fflush(stdout);
+            }
+        }
+    }
+    frag.table(t);
+}
+
+void sectionLatency(const Options &o, const std::vector<ResolutionPlan> &plans,
+                    std::map<std::string, std::vector<cv::Mat>> &bgr)
+{
+    Fragment frag(o, "latency_element");
+    const int fps = 30;
+    const long n = o.quick ? 150 : 300;
+    frag.text(format("Element latency: I420 frames pushed into appsrc at %d fps (paced, %ld frames), default "
+                     "properties (delay 20, 2 threads). Delay on timestamps = input frames pushed when the output "
+                     "with frame i's PTS reaches the sink, minus i+1; the LATENCY query of the element's src pad "
+                     "(its reported latency); processing latency = arrival of output i at the sink minus the push "
+                     "of frame i+delay into appsrc (median, p99, max), beside one frame time (%.1f ms).",
+                     fps, n, 1000.0 / fps));
+    Table t({"resolution", "delay (frames)", "delay (ms)", "LATENCY query (ms)", "processing median ms", "p99 ms",
+             "max ms", "p99 <= 1 frame"});
+    for (const ResolutionPlan &p : plans) {
+        const GstFrames frames(framesFromBgr(bgr[p.res.name()], PixelFormat::I420), fps);
+        ElementRun run(frames, "");
+        run.start();
+        const auto start = Clock::now();
+        gint64 query = -1;
+        for (long k = 0; k < n; ++k) {
+            std::this_thread::sleep_until(start + std::chrono::microseconds(long(1e6 * k / fps)));
+            run.push(k);
+            if (k == 40)
+                query = run.queryLatency();
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        if (!run.finish()) {
+            frag.text(format("**Element latency run failed** at %s: %s", p.res.name().c_str(), run.error().c_str()));
+            continue;
+        }
+        const int delay = 20;
+        std::vector<double> latency, delays;
+        const auto &pushed = run.pushTimes();
+        for (const auto &a : run.arrivals()) {
+            if (a.index < 0 || a.index + delay >= n)
+                continue;  // drained at EOS
+            delays.push_back(double(a.pushed - 1 - a.index));
+            latency.push_back(msBetween(pushed[std::size_t(a.index + delay)], a.time));
+        }
+        const double d = median(delays);
+        const double p50 = median(latency), p99 = percentile(latency, 99), mx = maxOf(latency);
+        t.row({p.res.name(), format("%.0f", d), format("%.0f", d * 1000.0 / fps),
+               query >= 0 ? format("%.1f", query / 1e6) : "n/a", format("%.1f", p50), format("%.1f", p99),
+               format("%.1f", mx), p99 <= 1000.0 / fps ? "yes" : "no"});
+        const std::string key = "latency.element." + p.res.name();
+        putResult(o, key + ".delay_frames", d);
+        putResult(o, key + ".query_ms", query / 1e6);
+        putResult(o, key + ".p50_ms", p50);
+        putResult(o, key + ".p99_ms", p99);
+        putResult(o, key + ".max_ms", mx);
+        std::printf("  latency element %s: delay %.0f frames, query %.1f ms, processing %.1f / %.1f ms\n",
+                    p.res.name().c_str(), d, query / 1e6, p50, p99);
+        std::fflush(stdout);
+    }
+    frag.table(t);
+}
+
+} // namespace
+
+int main(int argc, char **argv)
+{
+    try {
+        std::string why;
+        const bool ok = initElement(&argc, &argv, &why);
+        const Options o = parseOptions(argc, argv);
+        if (!ok) {
+            Fragment a(o, "speed_element"), b(o, "latency_element");
+            a.text("Element throughput: skipped: " + why + ".");
+            b.text("Element latency: skipped: " + why + ".");
+            putResultText(o, "element.skipped", why);
+            return 0;
+        }
+        const std::vector<ResolutionPlan> plans = benchPlans(o.quick);
+        std::map<std::string, std::vector<cv::Mat>> bgr;
+        for (const ResolutionPlan &p : plans)
+            bgr[p.res.name()] = renderFlight(p.res.width, p.res.height, p.distinct);
+        if (o.wants("throughput"))
+            sectionThroughput(o, plans, bgr);
+        if (o.wants("latency"))
+            sectionLatency(o, plans, bgr);
+    } catch (const std::exception &e) {
+        std::cerr << "uavstab-bench-element: " << e.what() << "\n";
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,380 @@
+// Speed of the library alone and of the peers (ffmpeg deshake, vid.stab), on the same
+// synthetic frames made in memory beforehand, so that no decoding is measured.
+//
+//   uavstab-bench-speed --out DIR [--quick] [--only lib|stages|latency|peers]...
+//
+// lib      Stabilizer push/pop throughput: resolutions x {I420, BGRx} x {1, 2} worker threads
+// stages   per-stage cost: MotionEstimator::estimate, the smoother (+ framing), FrameWarper::warp
+// latency  frames pushed at 30 fps: processing latency (push of frame i+delay -> output i)
+// peers    ffmpeg deshake and vidstabdetect + vidstabtransform on the same frames (raw, tmpfs)
+#include <algorithm>
+#include <cmath>
+#include <condition_variable>
+#include <cstring>
+#include <iostream>
+#include <map>
+#include <thread>
+
+#include <opencv2/core/utility.hpp>
+
+#include "common.hpp"
+#include "uavstab/frame_warper.hpp"
+#include "uavstab/framing.hpp"
+#include "uavstab/motion_estimator.hpp"
+#include "uavstab/stabilizer.hpp"
+#include "uavstab/trajectory_smoother.hpp"
+
+using namespace uavstab;
+using namespace bench;
+
+namespace {
+
+// One timed run: frames/s from the first push to the last pop.
+double libraryRun(const std::vector<FrameBuffer> &frames, long pushes, const StabilizerConfig &config,
+                  OutputPool &pool, long *failed)
+{
+    Stabilizer stabilizer(config);
+    // Bound the warps in flight, as a host with a fixed buffer pool would.
+    const std::size_t max_in_flight = std::size_t(config.resolvedThreads()) + 2;
+    long popped = 0;
+    auto take = [&](std::optional<StabilizedFrame> f) {
+        ++popped;
+        if (f->outcome != Outcome::Warped)
+            ++*failed;
+    };
+    const auto t0 = Clock::now();
+    for (long k = 0; k < pushes; ++k) {
+        const int i = pingPong(k, int(frames.size()));
+        stabilizer.push(std::make_unique<PoolSlot>(frames[std::size_t(i)].view(), pool, k));
+        while (auto f = stabilizer.tryPop())
+            take(std::move(f));
+        while (stabilizer.finalizedCount() > max_in_flight)
+            if (auto f = stabilizer.waitPop())
+                take(std::move(f));
+    }
+    stabilizer.flush();
+    while (auto f = stabilizer.waitPop())
+        take(std::move(f));
+    const double s = secondsBetween(t0, Clock::now());
+    if (popped != pushes)
+        throw std::runtime_error("library run lost frames");
+    return double(pushes) / s;
+}
+
+void sectionLibrary(const Options &o, const std::vector<ResolutionPlan> &plans,
+                    std::map<std::string, std::vector<cv::Mat>> &bgr_cache)
+{
+    Fragment frag(o, "speed_lib");
+    const int runs = o.quick ? 3 : 5;
+    frag.text(format("Library alone: `Stabilizer` push/tryPop on frames made in memory beforehand (the synthetic "
+                     "flight, played back and forth), default config (delay 20, box r10, analysis width 640), "
+                     "output frames recycled from a pool, at most threads+2 warps in flight. Frames/s, median "
+                     "(min-max) of %d runs after one warm-up run. OpenCV's own thread pool: %d threads.",
+                     runs, cv::getNumThreads()));
+    Table t({"resolution", "format", "threads", "frames/run", "fps median (min-max)", "ms/frame"});
+    for (const ResolutionPlan &p : plans) {
+        const auto &bgr = bgr_cache[p.res.name()];
+        for (PixelFormat fmt : {PixelFormat::I420, PixelFormat::BGRx}) {
+            const std::vector<FrameBuffer> frames = framesFromBgr(bgr, fmt);
+            for (int threads : {1, 2}) {
+                StabilizerConfig config;
+                config.threads = threads;
+                OutputPool pool(fmt, p.res.width, p.res.height);
+                long failed = 0;
+                libraryRun(frames, std::min<long>(p.pushes / 2, 60), config, pool, &failed);  // warm-up
+                std::vector<double> fps;
+                for (int r = 0; r < runs; ++r)
+                    fps.push_back(libraryRun(frames, p.pushes, config, pool, &failed));
+                const double med = median(fps);
+                t.row({p.res.name(), formatName(fmt), std::to_string(threads), std::to_string(p.pushes),
+                       spread(fps, "%.0f"), format("%.2f", 1000.0 / med)});
+                const std::string key = format("lib.fps.%s.%s.t%d", p.res.name().c_str(), formatName(fmt), threads);
+                putResult(o, key, med);
+                putResult(o, key + ".min", minOf(fps));
+                putResult(o, key + ".max", maxOf(fps));
+                std::printf("  lib %s %s threads=%d: %s fps%s\n", p.res.name().c_str(), formatName(fmt), threads,
+                            spread(fps).c_str(), failed ? " (FAILED FRAMES)" : "");
+                std::fflush(stdout);
+                if (failed)
+                    frag.text(format("**%ld frames were not warped** at %s %s threads=%d.", failed,
+                                     p.res.name().c_str(), formatName(fmt), threads));
+            }
+        }
+    }
+    frag.table(t);
+}
+
+void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
+                   std::map<std::string, std::vector<cv::Mat>> &bgr_cache)
+{
+    Fragment frag(o, "speed_stages");
+    frag.text("Per-stage cost, measured directly on the library classes on one thread: "
+              "`MotionEstimator::estimate` (luma extraction/downscale, pyramid, Shi-Tomasi every 5 frames, "
+              "LK forward+backward, robust fit), the smoother + framing (`WeightedTrajectorySmoother::smooth` on "
+              "a full window, then `frameOutput`), and `FrameWarper::warp` of a whole frame (OpenCV limited to "
+              "1 thread, and with OpenCV's default pool). ms/frame: mean (p95).");
+    Table t({"resolution", "format", "estimate", "smooth box r10", "smooth gauss r20", "warp (1 cv thread)",
+             "warp (cv default)", "sum (1 thread)"});
+    const int default_threads = cv::getNumThreads();
+    for (const ResolutionPlan &p : plans) {
+        const auto &bgr = bgr_cache[p.res.name()];
+        for (PixelFormat fmt : {PixelFormat::I420, PixelFormat::BGRx}) {
+            const std::vector<FrameBuffer> frames = framesFromBgr(bgr, fmt);
+            StabilizerConfig config;
+            cv::setNumThreads(1);
+            // Estimation.
+            MotionEstimator estimator(config);
+            std::vector<double> est;
+            const long n = o.quick ? 60 : 150;
+            for (long k = 0; k < n + 5; ++k) {
+                const auto t0 = Clock::now();
+                estimator.estimate(frames[std::size_t(pingPong(k, int(frames.size())))].view());
+                if (k >= 5)
+                    est.push_back(msBetween(t0, Clock::now()));
+            }
+            // Smoothing + framing on a realistic path (the flight's own motion estimates).
+            auto smoothCost = [&](SmootherKind kind, int radius) {
+                std::vector<Similarity> window;
+                Similarity pose;
+                for (int k = 0; k <= 2 * radius; ++k) {
+                    pose = pose * Similarity{1.5 + std::sin(k * 0.7), 0.5 * std::cos(k * 1.3), 0.001 * k, 1.0};
+                    window.push_back(pose);
+                }
+                const auto smoother = makeSmoother(kind, radius);
+                std::vector<double> ms;
+                for (int rep = 0; rep < 2000; ++rep) {
+                    const auto t0 = Clock::now();
+                    const Similarity s = smoother->smooth(window, std::size_t(radius));
+                    const Framing f = frameOutput(s.inverse() * window[std::size_t(radius)], p.res.width,
+                                                  p.res.height, config.crop, config.limit_to_crop);
+                    ms.push_back(msBetween(t0, Clock::now()));
+                    if (f.zoom < 0)
+                        std::abort();
+                }
+                return ms;
+            };
+            const std::vector<double> box = smoothCost(SmootherKind::Box, 10);
+            const std::vector<double> gauss = smoothCost(SmootherKind::Gaussian, 20);
+            // Warp.
+            FrameBuffer out(fmt, p.res.width, p.res.height);
+            auto warpCost = [&]() {
+                const FrameWarper warper(BorderMode::Black);
+                std::vector<double> ms;
+                const int reps = o.quick ? 15 : 40;
+                for (int k = 0; k < reps + 2; ++k) {
+                    const Similarity m{0.7 * std::sin(k), 1.3 * std::cos(k), 0.004 * std::sin(0.5 * k), 0.92};
+                    const auto t0 = Clock::now();
+                    warper.warp(frames[std::size_t(k) % frames.size()].view(), out.view(), m);
+                    if (k >= 2)
+                        ms.push_back(msBetween(t0, Clock::now()));
+                }
+                return ms;
+            };
+            const std::vector<double> warp1 = warpCost();
+            cv::setNumThreads(default_threads);
+            const std::vector<double> warpN = warpCost();
+            auto cell = [](const std::vector<double> &v, const char *f) {
+                return format(f, mean(v), percentile(v, 95));
+            };
+            t.row({p.res.name(), formatName(fmt), cell(est, "%.2f (%.2f)"), cell(box, "%.4f (%.4f)"),
+                   cell(gauss, "%.4f (%.4f)"), cell(warp1, "%.2f (%.2f)"), cell(warpN, "%.2f (%.2f)"),
+                   format("%.2f", mean(est) + mean(gauss) + mean(warp1))});
+            const std::string key = format("stage.%s.%s", p.res.name().c_str(), formatName(fmt));
+            putResult(o, key + ".estimate_ms", mean(est));
+            putResult(o, key + ".smooth_box10_ms", mean(box));
+            putResult(o, key + ".smooth_gauss20_ms", mean(gauss));
+            putResult(o, key + ".warp1_ms", mean(warp1));
+            putResult(o, key + ".warpN_ms", mean(warpN));
+            std::printf("  stages %s %s: estimate %.2f ms, warp %.2f ms (1 thread) %.2f ms (default)\n",
+                        p.res.name().c_str(), formatName(fmt), mean(est), mean(warp1), mean(warpN));
+            std::fflush(stdout);
+        }
+    }
+    cv::setNumThreads(default_threads);
+    frag.table(t);
+}
+
+// Frames pushed at a camera's pace; output times taken when the ready callback fires.
+void sectionLatency(const Options &o, const std::vector<ResolutionPlan> &plans,
+                    std::map<std::string, std::vector<cv::Mat>> &bgr_cache)
+{
+    Fragment frag(o, "latency_lib");
+    const double fps = 30.0;
+    const long n = o.quick ? 150 : 300;
+    frag.text(format("Library latency: I420 frames pushed at %.0f fps (paced, %ld frames), default config "
+                     "(delay 20, 2 workers). Delay = frames pushed after frame i when output i is popped; "
+                     "processing latency = time from the start of push(frame i+delay) to output i being ready "
+                     "(median, p99, max), beside one frame time (%.1f ms).",
+                     fps, n, 1000.0 / fps));
+    Table t({"resolution", "delay (frames)", "delay (ms)", "processing median ms", "p99 ms", "max ms",
+             "p99 <= 1 frame"});
+    for (const ResolutionPlan &p : plans) {
+        const std::vector<FrameBuffer> frames = framesFromBgr(bgr_cache[p.res.name()], PixelFormat::I420);
+        StabilizerConfig config;
+        Stabilizer stabilizer(config);
+        OutputPool pool(PixelFormat::I420, p.res.width, p.res.height);
+        std::mutex m;
+        std::condition_variable cv;
+        bool ready = false;
+        stabilizer.setReadyCallback([&] {
+            {
+                std::lock_guard<std::mutex> lock(m);
+                ready = true;
+            }
+            cv.notify_one();
+        });
+        std::vector<Clock::time_point> pushed{std::size_t(n)};
+        std::vector<double> latency, delay_frames;
+        long pushed_count = 0;
+        auto drain = [&]() {
+            while (auto f = stabilizer.tryPop()) {
+                const auto now = Clock::now();
+                const long i = static_cast<const PoolSlot &>(*f->slot).index();
+                delay_frames.push_back(double(pushed_count - 1 - i));
+                const long j = i + config.delay;
+                if (j < n)
+                    latency.push_back(msBetween(pushed[std::size_t(j)], now));
+            }
+        };
+        const auto start = Clock::now();
+        for (long k = 0; k < n; ++k) {
+            const auto due = start + std::chrono::microseconds(long(1e6 * k / fps));
+            for (;;) {
+                std::unique_lock<std::mutex> lock(m);
+                if (!cv.wait_until(lock, due, [&] { return ready; }))
+                    break;
+                ready = false;
+                lock.unlock();
+                drain();
+            }
+            drain();
+            pushed[std::size_t(k)] = Clock::now();
+            stabilizer.push(std::make_unique<PoolSlot>(frames[std::size_t(pingPong(k, int(frames.size())))].view(),
+                                                       pool, k));
+            ++pushed_count;
+        }
+        // Give the last warps time to land, then flush.
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        drain();
+        stabilizer.flush();
+        while (auto f = stabilizer.waitPop()) {
+        }
+        const double d = median(delay_frames);
+        const double p50 = median(latency), p99 = percentile(latency, 99), mx = maxOf(latency);
+        t.row({p.res.name(), format("%.0f", d), format("%.0f", d * 1000.0 / fps), format("%.1f", p50),
+               format("%.1f", p99), format("%.1f", mx), p99 <= 1000.0 / fps ? "yes" : "no"});
+        const std::string key = "latency.lib." + p.res.name();
+        putResult(o, key + ".delay_frames", d);
+        putResult(o, key + ".p50_ms", p50);
+        putResult(o, key + ".p99_ms", p99);
+        putResult(o, key + ".max_ms", mx);
+        std::printf("  latency lib %s: delay %.0f frames, processing %.1f / %.1f ms (median/p99)\n",
+                    p.res.name().c_str(), d, p50, p99);
+        std::fflush(stdout);
+    }
+    frag.table(t);
+}
+
+void sectionPeers(const Options &o, const std::vector<ResolutionPlan> &plans,
+                  std::map<std::string, std::vector<cv::Mat>> &bgr_cache)
+{
+    Fragment frag(o, "speed_peers");
+    const bool have_ffmpeg = haveCommand("ffmpeg");
+    const bool deshake = have_ffmpeg && ffmpegHasFilter("deshake");
+    const bool vidstab = have_ffmpeg && ffmpegHasFilter("vidstabdetect") && ffmpegHasFilter("vidstabtransform");
+    if (!deshake && !vidstab) {
+        frag.text("Peers: skipped: ffmpeg (with deshake or vid.stab) is not installed.");
+        putResultText(o, "peers.skipped", "ffmpeg not installed");
+        return;
+    }
+    const int runs = o.quick ? 3 : 5;
+    frag.text(format("Peers on the same frames (I420 = yuv420p, the synthetic flight played back and forth), read by "
+                     "ffmpeg as raw video from a file in tmpfs, output discarded (`-f null -`); default filter "
+                     "settings. vid.stab = `vidstabdetect` pass + `vidstabtransform` pass, both counted. "
+                     "Wall time of the ffmpeg process (includes its start-up, about 0.1 s), median (min-max) of %d "
+                     "runs. `ffmpeg read` is the same command with no filter: the cost of reading the frames.%s%s",
+                     runs, deshake ? "" : " deshake: not available in this ffmpeg.",
+                     vidstab ? "" : " vid.stab: not available in this ffmpeg."));
+    Table t({"resolution", "frames", "ffmpeg read fps", "deshake fps", "vid.stab fps (2 passes)", "vidstabdetect fps",
+             "vidstabtransform fps"});
+    ScratchDir scratch("peers");
+    for (const ResolutionPlan &p : plans) {
+        const std::vector<FrameBuffer> frames = framesFromBgr(bgr_cache[p.res.name()], PixelFormat::I420);
+        const std::string raw = scratch.file("in.yuv"), trf = scratch.file("t.trf");
+        {
+            std::FILE *f = std::fopen(raw.c_str(), "wb");
+            for (int k = 0; k < p.peer_frames; ++k)
+                writeRawI420(f, frames[std::size_t(pingPong(k, int(frames.size())))].view());
+            std::fclose(f);
+        }
+        const std::string in = format("ffmpeg -hide_banner -loglevel error -nostdin -f rawvideo -pix_fmt yuv420p "
+                                      "-s %dx%d -r 30 -i %s ",
+                                      p.res.width, p.res.height, raw.c_str());
+        auto timed = [&](const std::string &cmd) {
+            double s = 0;
+            if (runCommand(cmd, &s) != 0)
+                throw std::runtime_error("failed: " + cmd);
+            return s;
+        };
+        std::vector<double> read_fps, deshake_fps, vs_fps, vsd_fps, vst_fps;
+        for (int r = 0; r < runs; ++r) {
+            read_fps.push_back(p.peer_frames / timed(in + "-f null -"));
+            if (deshake)
+                deshake_fps.push_back(p.peer_frames / timed(in + "-vf deshake -f null -"));
+            if (vidstab) {
+                const double a = timed(in + "-vf vidstabdetect=result=" + trf + " -f null -");
+                const double b = timed(in + "-vf vidstabtransform=input=" + trf + " -f null -");
+                vs_fps.push_back(p.peer_frames / (a + b));
+                vsd_fps.push_back(p.peer_frames / a);
+                vst_fps.push_back(p.peer_frames / b);
+            }
+        }
+        std::remove(raw.c_str());
+        t.row({p.res.name(), std::to_string(p.peer_frames), spread(read_fps, "%.0f"),
+               deshake ? spread(deshake_fps, "%.1f") : "n/a", vidstab ? spread(vs_fps, "%.1f") : "n/a",
+               vidstab ? spread(vsd_fps, "%.1f") : "n/a", vidstab ? spread(vst_fps, "%.1f") : "n/a"});
+        if (deshake)
+            putResult(o, "peer.deshake.fps." + p.res.name(), median(deshake_fps));
+        if (vidstab)
+            putResult(o, "peer.vidstab.fps." + p.res.name(), median(vs_fps));
+        std::printf("  peers %s: deshake %s fps, vid.stab %s fps\n", p.res.name().c_str(),
+                    spread(deshake_fps, "%.1f").c_str(), spread(vs_fps, "%.1f").c_str());
+        std::fflush(stdout);
+    }
+    frag.table(t);
+}
+
+} // namespace
+
+int main(int argc, char **argv)
+{
+    try {
+        const Options o = parseOptions(argc, argv);
+        for (std::size_t i = 0; i + 1 < o.rest.size(); ++i)
+            if (o.rest[i] == "--cv-threads")  // for experiments: OpenCV's pool size
+                cv::setNumThreads(std::atoi(o.rest[i + 1].c_str()));
+        std::vector<ResolutionPlan> plans;
+        for (const Resolution &r : benchResolutions(o.quick))
+            plans.push_back(planFor(r, o.quick));
+        std::map<std::string, std::vector<cv::Mat>> bgr;
+        for (const ResolutionPlan &p : plans) {
+            const auto t0 = Clock::now();
+            bgr[p.res.name()] = renderFlight(p.res.width, p.res.height, p.distinct);
+            std::printf("rendered %d frames of %s in %.1f s\n", p.distinct, p.res.name().c_str(),
+                        secondsBetween(t0, Clock::now()));
+            std::fflush(stdout);
+        }
+        if (o.wants("lib"))
+            sectionLibrary(o, plans, bgr);
+        if (o.wants("stages"))
+            sectionStages(o, plans, bgr);
+        if (o.wants("latency"))
+            sectionLatency(o, plans, bgr);
+        if (o.wants("peers"))
+            sectionPeers(o, plans, bgr);
+    } catch (const std::exception &e) {
+        std::cerr << "uavstab-bench-speed: " << e.what() << "\n";
+        return 1;
+    }
+    return 0;
+}

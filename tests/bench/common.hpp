@@ -1,0 +1,219 @@
+// Shared pieces of the benchmark programs: timing and statistics, process memory,
+// result files (markdown fragments + a key/value summary), in-memory frame sets, a
+// FrameSlot over a recycled output pool, ffmpeg helpers and raw-video I/O.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "uavstab/frame_buffer.hpp"
+#include "uavstab/stabilizer.hpp"
+
+namespace bench {
+
+using Clock = std::chrono::steady_clock;
+double secondsBetween(Clock::time_point a, Clock::time_point b);
+double msBetween(Clock::time_point a, Clock::time_point b);
+
+// ---- statistics -------------------------------------------------------------------
+double median(std::vector<double> v);
+// Linear interpolation between order statistics, p in [0, 100].
+double percentile(std::vector<double> v, double p);
+double mean(const std::vector<double> &v);
+double minOf(const std::vector<double> &v);
+double maxOf(const std::vector<double> &v);
+// "median (min-max)" with the given printf format for each number.
+std::string spread(const std::vector<double> &v, const char *number_format = "%.0f");
+
+std::string format(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
+// ---- process memory (Linux /proc) ----------------------------------------------------
+long rssKiB();       // VmRSS
+long peakRssKiB();   // VmHWM
+bool resetPeakRss(); // writes 5 to /proc/self/clear_refs: VmHWM := VmRSS
+
+// CPU used by other processes (and stolen by the hypervisor) while a measurement ran:
+// the machine is shared, so every section reports it beside its numbers.
+class LoadMonitor {
+public:
+    LoadMonitor() { restart(); }
+    void restart();
+    // Shares of all CPUs' time since restart(): busy in other processes, and stolen.
+    double foreignShare() const;
+    double stealShare() const;
+    std::string describe() const;
+
+private:
+    struct Sample {
+        double busy = 0, steal = 0, own = 0;
+        Clock::time_point time;
+    };
+    static Sample sample();
+    Sample start_;
+};
+
+// ---- results ----------------------------------------------------------------------
+// Command-line options every benchmark program takes.
+struct Options {
+    bool quick = false;
+    std::string out_dir = ".";
+    std::vector<std::string> only;  // sections to run (empty = all)
+    std::string data_dir;           // real clips (../shared/data relative to the repo)
+    std::vector<std::string> rest;  // anything else, for the program
+    bool wants(const std::string &section) const;
+};
+Options parseOptions(int argc, char **argv);
+
+// Appends "key<TAB>value" lines to OUT/summary.tsv (read by the report assembler).
+void putResult(const Options &o, const std::string &key, double value);
+void putResultText(const Options &o, const std::string &key, const std::string &value);
+
+// A markdown table, written to a fragment file.
+class Table {
+public:
+    explicit Table(std::vector<std::string> header) : header_(std::move(header)) {}
+    void row(std::vector<std::string> cells) { rows_.push_back(std::move(cells)); }
+    bool empty() const { return rows_.empty(); }
+    std::string markdown() const;
+
+private:
+    std::vector<std::string> header_;
+    std::vector<std::vector<std::string>> rows_;
+};
+
+// Markdown fragment OUT/NAME.md, overwritten by each program run.
+class Fragment {
+public:
+    Fragment(const Options &o, const std::string &name);
+    ~Fragment();
+    void text(const std::string &s);  // a paragraph (also echoed to stdout)
+    void table(const Table &t);
+    void line(const std::string &s);  // raw line, no echo
+
+private:
+    std::FILE *file_;
+    LoadMonitor load_;
+};
+
+// ---- frames -----------------------------------------------------------------------
+struct Resolution {
+    int width, height;
+    std::string name() const;
+};
+std::vector<Resolution> benchResolutions(bool quick);
+
+// How many frames each resolution gets in the speed runs.
+struct ResolutionPlan {
+    Resolution res;
+    int distinct;     // frames rendered (then played back and forth)
+    long pushes;      // frames per timed run
+    int peer_frames;  // frames per ffmpeg run
+};
+ResolutionPlan planFor(const Resolution &r, bool quick);
+std::vector<ResolutionPlan> benchPlans(bool quick);
+const char *formatName(uavstab::PixelFormat f);
+
+// Frames of the synthetic shaky flight (two moving objects), rendered in memory (BGR).
+std::vector<cv::Mat> renderFlight(int width, int height, int count, std::uint32_t seed = 7);
+// A frame of the given format from a BGR picture (I420: BT.601 via OpenCV).
+uavstab::FrameBuffer frameFromBgr(const cv::Mat &bgr, uavstab::PixelFormat format);
+std::vector<uavstab::FrameBuffer> framesFromBgr(const std::vector<cv::Mat> &bgr, uavstab::PixelFormat format);
+// Index of the k-th frame to push when a clip of n frames is played back and forth
+// (0 1 .. n-1 n-2 .. 1 0 1 ..): endless input with continuous motion.
+int pingPong(long k, int n);
+
+// Output frames recycled the way a host's buffer pool would be.
+class OutputPool {
+public:
+    OutputPool(uavstab::PixelFormat format, int width, int height) : format_(format), width_(width), height_(height) {}
+    std::unique_ptr<uavstab::FrameBuffer> get();
+    void put(std::unique_ptr<uavstab::FrameBuffer> b);
+    std::size_t allocated() const { return allocated_; }
+
+private:
+    std::mutex mutex_;
+    uavstab::PixelFormat format_;
+    int width_, height_;
+    std::vector<std::unique_ptr<uavstab::FrameBuffer>> free_;
+    std::size_t allocated_ = 0;
+};
+
+// Reads a frame it does not own; writes into a pooled output, returned when destroyed.
+class PoolSlot : public uavstab::FrameSlot {
+public:
+    PoolSlot(const uavstab::FrameView &in, OutputPool &pool, long index) : in_(in), pool_(pool), index_(index) {}
+    ~PoolSlot() override;
+    uavstab::FrameView input() override { return in_; }
+    std::optional<uavstab::FrameView> acquireOutput() override;
+    long index() const { return index_; }
+    const uavstab::FrameBuffer *output() const { return out_.get(); }
+
+private:
+    uavstab::FrameView in_;
+    OutputPool &pool_;
+    long index_;
+    std::unique_ptr<uavstab::FrameBuffer> out_;
+};
+
+// Owns its input (a private copy) and its output.
+class OwnedSlot : public uavstab::FrameSlot {
+public:
+    OwnedSlot(uavstab::FrameBuffer in, long index) : in_(std::move(in)), index_(index) {}
+    uavstab::FrameView input() override { return in_.view(); }
+    std::optional<uavstab::FrameView> acquireOutput() override;
+    long index() const { return index_; }
+    const uavstab::FrameBuffer &in() const { return in_; }
+    const uavstab::FrameBuffer &out() const { return out_; }
+
+private:
+    uavstab::FrameBuffer in_, out_;
+    long index_;
+};
+
+// ---- external tools -----------------------------------------------------------------
+bool haveCommand(const std::string &name);
+bool ffmpegHasFilter(const std::string &filter);
+// Runs a shell command; returns its exit status. Wall time in *seconds when given.
+int runCommand(const std::string &command, double *seconds = nullptr);
+std::string commandOutput(const std::string &command);
+std::string shellQuote(const std::string &s);
+
+// Scratch directory in tmpfs (/dev/shm when present), removed by the destructor.
+class ScratchDir {
+public:
+    explicit ScratchDir(const std::string &tag);
+    ~ScratchDir();
+    const std::string &path() const { return path_; }
+    std::string file(const std::string &name) const { return path_ + "/" + name; }
+
+private:
+    std::string path_;
+};
+
+// Raw I420 (yuv420p) files and pipes, frame by frame.
+void writeRawI420(std::FILE *f, const uavstab::FrameView &frame);
+bool readRawI420(std::FILE *f, uavstab::FrameBuffer &frame, int width, int height);
+
+// Reads frames from a pipe (ffmpeg ... -f rawvideo -pix_fmt yuv420p -).
+class RawPipeReader {
+public:
+    RawPipeReader(const std::string &command, int width, int height);
+    ~RawPipeReader();
+    bool read(uavstab::FrameBuffer &frame);
+    int close();  // exit status
+
+private:
+    std::FILE *pipe_;
+    int width_, height_;
+};
+
+} // namespace bench
