@@ -38,7 +38,7 @@ std::optional<uavstab::FrameView> frameViewOf(const GstVideoFrame &frame)
 std::unique_ptr<GstFrameSlot> GstFrameSlot::map(GstBuffer *buffer, const GstVideoInfo &info,
                                                 OutputBufferSource &outputs)
 {
-    std::unique_ptr<GstFrameSlot> slot(new GstFrameSlot(buffer, outputs));
+    std::unique_ptr<GstFrameSlot> slot(new GstFrameSlot(buffer, info, outputs));
     // gst_video_frame_map checks the buffer (or its video meta) against the caps, so a
     // short buffer is refused here instead of being read out of bounds later.
     GstVideoInfo caps_info = info;
@@ -71,7 +71,8 @@ std::optional<uavstab::FrameView> GstFrameSlot::acquireOutput()
     output_ = outputs_.acquireOutputBuffer();
     if (!output_)
         return std::nullopt;
-    if (!gst_video_frame_map(&output_frame_, &input_frame_.info, output_, GST_MAP_WRITE))
+    GstVideoInfo caps_info = caps_info_;
+    if (!gst_video_frame_map(&output_frame_, &caps_info, output_, GST_MAP_WRITE))
         throw std::runtime_error("the output buffer cannot be mapped for writing");
     output_mapped_ = true;
     const std::optional<uavstab::FrameView> view = frameViewOf(output_frame_);

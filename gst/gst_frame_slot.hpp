@@ -48,10 +48,16 @@ public:
     GstBuffer *releaseOutput();
 
 private:
-    GstFrameSlot(GstBuffer *input, OutputBufferSource &outputs) : input_(input), outputs_(outputs) {}
+    GstFrameSlot(GstBuffer *input, const GstVideoInfo &info, OutputBufferSource &outputs)
+        : input_(input), outputs_(outputs), caps_info_(info)
+    {
+    }
 
     GstBuffer *input_;  // owned reference
     OutputBufferSource &outputs_;
+    // The layout the caps describe. The input's mapping may differ (a video meta with
+    // padded strides); the output is mapped with this or its own meta, never the input's.
+    GstVideoInfo caps_info_;
     GstVideoFrame input_frame_{};
     bool input_mapped_ = false;
     uavstab::FrameView input_view_;

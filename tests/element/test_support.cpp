@@ -1,6 +1,9 @@
 // Standard headers first: libcheck defines macros (fail, ...) that clash with them.
+#include <cstdio>
 #include <cstring>
 #include <sstream>
+
+#include <unistd.h>
 
 #include "test_support.hpp"
 
@@ -26,6 +29,13 @@ int runSuite(Suite *suite)
     srunner_run_all(runner, CK_ENV);
     const int failed = srunner_ntests_failed(runner);
     srunner_free(runner);
+    if (failed > 0) {
+        // A failed test may have left a pipeline running (no fork: nothing was torn
+        // down), and gst_deinit at exit would wait for its threads forever.
+        std::fflush(stdout);
+        std::fflush(stderr);
+        _exit(1);
+    }
     return failed;
 }
 
