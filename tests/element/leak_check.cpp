@@ -77,25 +77,32 @@ std::string stopLeakTracking()
     GstTracer *tracer = leaksTracer();
     if (!tracer)
         return {};
-    GstStructure *checkpoint = nullptr;
-    g_signal_emit_by_name(tracer, "activity-get-checkpoint", &checkpoint);
-    g_signal_emit_by_name(tracer, "activity-stop-tracking");
-    if (!checkpoint)
-        return {};
+    // A thread that has just finished (a joined task's thread, a pool worker) may drop
+    // its last reference a moment later, so leftovers get a little time to go.
     std::map<std::string, int> alive;
-    countEntries(checkpoint, "objects-created-list", +1, alive);
-    countEntries(checkpoint, "objects-removed-list", -1, alive);
-    gst_structure_free(checkpoint);
-
     std::string leaks;
-    for (const auto &[key, count] : alive) {
-        if (count <= 0)
-            continue;
-        const auto space = key.find(' ');
-        if (mayBeLeaked(key.substr(0, space), key.substr(space + 1)))
-            continue;
-        leaks += (leaks.empty() ? "" : ", ") + key + (count > 1 ? " x" + std::to_string(count) : "");
+    for (int attempt = 0; attempt < 100; ++attempt) {
+        GstStructure *checkpoint = nullptr;
+        g_signal_emit_by_name(tracer, "activity-get-checkpoint", &checkpoint);
+        if (checkpoint) {
+            countEntries(checkpoint, "objects-created-list", +1, alive);
+            countEntries(checkpoint, "objects-removed-list", -1, alive);
+            gst_structure_free(checkpoint);
+        }
+        leaks.clear();
+        for (const auto &[key, count] : alive) {
+            if (count <= 0)
+                continue;
+            const auto space = key.find(' ');
+            if (mayBeLeaked(key.substr(0, space), key.substr(space + 1)))
+                continue;
+            leaks += (leaks.empty() ? "" : ", ") + key + (count > 1 ? " x" + std::to_string(count) : "");
+        }
+        if (leaks.empty())
+            break;
+        g_usleep(20 * 1000);
     }
+    g_signal_emit_by_name(tracer, "activity-stop-tracking");
     return leaks;
 }
 

@@ -1,0 +1,160 @@
+// The element in real pipelines: state changes while streaming (no deadlock, no leak),
+// pausing keeps every frame, and a live pipeline's latency includes the delay.
+#include <chrono>
+#include <cstdlib>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "test_support.hpp"
+
+using namespace element_test;
+
+namespace {
+
+GstElement *launch(const std::string &description)
+{
+    GError *error = nullptr;
+    GstElement *pipeline = gst_parse_launch(description.c_str(), &error);
+    fail_unless(pipeline != nullptr && error == nullptr, "cannot launch '%s': %s", description.c_str(),
+                error ? error->message : "?");
+    return GST_ELEMENT(gst_object_ref_sink(pipeline));
+}
+
+// Waits for one of `types`; fails on an error message.
+GstMessage *waitFor(GstElement *pipeline, GstMessageType types, GstClockTime timeout = 30 * GST_SECOND)
+{
+    GstBus *bus = gst_element_get_bus(pipeline);
+    GstMessage *message =
+        gst_bus_timed_pop_filtered(bus, timeout, GstMessageType(types | GST_MESSAGE_ERROR));
+    gst_object_unref(bus);
+    fail_unless(message != nullptr, "timed out waiting for a message");
+    if (GST_MESSAGE_TYPE(message) == GST_MESSAGE_ERROR) {
+        GError *error = nullptr;
+        gst_message_parse_error(message, &error, nullptr);
+        fail("error from the pipeline: %s", error->message);
+    }
+    return message;
+}
+
+int stateCycles()
+{
+    const char *value = g_getenv("UAVSTABILIZE_STATE_CYCLES");
+    return value ? std::atoi(value) : 50;
+}
+
+struct HandoffLog {
+    std::mutex mutex;
+    std::vector<GstClockTime> timestamps;
+};
+
+void onHandoff(GstElement *, GstBuffer *buffer, GstPad *, gpointer user_data)
+{
+    auto *log = static_cast<HandoffLog *>(user_data);
+    std::lock_guard<std::mutex> lock(log->mutex);
+    log->timestamps.push_back(GST_BUFFER_PTS(buffer));
+}
+
+const char *const kBallPipeline = "videotestsrc pattern=ball is-live=false num-buffers=40 ! "
+                                  "video/x-raw,format=I420,width=160,height=120,framerate=30/1 ! "
+                                  "uavstabilize threads=2 delay=5 ! fakesink sync=false";
+
+} // namespace
+
+GST_START_TEST(warm_up)
+{
+    GstElement *pipeline = launch(kBallPipeline);
+    fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);
+    gst_message_unref(waitFor(pipeline, GST_MESSAGE_EOS));
+    gst_element_set_state(pipeline, GST_STATE_NULL);
+    gst_object_unref(pipeline);
+}
+GST_END_TEST;
+
+ELEMENT_TEST(playing_to_null_cycles_neither_deadlock_nor_leak)
+{
+    GstElement *pipeline = launch(kBallPipeline);
+    const int cycles = stateCycles();
+    for (int c = 0; c < cycles; ++c) {
+        fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);
+        switch (c % 4) {
+        case 0:  // straight back down, frames in flight
+            break;
+        case 1:  // once prerolled
+            gst_message_unref(waitFor(pipeline, GST_MESSAGE_ASYNC_DONE));
+            break;
+        case 2:  // after the whole stream
+            gst_message_unref(waitFor(pipeline, GST_MESSAGE_EOS));
+            break;
+        default:  // somewhere in the middle
+            std::this_thread::sleep_for(std::chrono::milliseconds(3 * c % 17));
+            break;
+        }
+        // (In NULL the pipeline flushes its bus: no message of this cycle is left.)
+        fail_unless_equals_int(gst_element_set_state(pipeline, GST_STATE_NULL), GST_STATE_CHANGE_SUCCESS);
+    }
+    gst_object_unref(pipeline);
+}
+
+ELEMENT_TEST(pausing_keeps_every_frame)
+{
+    constexpr int kFrames = 60;
+    GstElement *pipeline = launch("videotestsrc pattern=ball is-live=false num-buffers=60 ! "
+                                  "video/x-raw,format=NV12,width=160,height=120,framerate=100/1 ! "
+                                  "uavstabilize threads=2 delay=10 ! fakesink name=sink sync=true signal-handoffs=true");
+    HandoffLog log;
+    GstElement *sink = gst_bin_get_by_name(GST_BIN(pipeline), "sink");
+    g_signal_connect(sink, "handoff", G_CALLBACK(onHandoff), &log);
+    gst_object_unref(sink);
+
+    fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);
+    for (int i = 0; i < 3; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(120));
+        fail_unless(gst_element_set_state(pipeline, GST_STATE_PAUSED) != GST_STATE_CHANGE_FAILURE);
+        fail_unless(gst_element_get_state(pipeline, nullptr, nullptr, 10 * GST_SECOND) != GST_STATE_CHANGE_FAILURE);
+        std::this_thread::sleep_for(std::chrono::milliseconds(80));
+        fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);
+    }
+    gst_message_unref(waitFor(pipeline, GST_MESSAGE_EOS));
+    {
+        std::lock_guard<std::mutex> lock(log.mutex);
+        fail_unless_equals_int(int(log.timestamps.size()), kFrames);
+        for (int i = 0; i < kFrames; ++i)
+            fail_unless_equals_uint64(log.timestamps[i], i * 10 * GST_MSECOND);
+    }
+    fail_unless_equals_int(gst_element_set_state(pipeline, GST_STATE_NULL), GST_STATE_CHANGE_SUCCESS);
+    gst_object_unref(pipeline);
+}
+
+ELEMENT_TEST(live_pipeline_latency_includes_the_delay)
+{
+    GstElement *pipeline = launch("videotestsrc is-live=true ! "
+                                  "video/x-raw,format=I420,width=160,height=120,framerate=30/1 ! "
+                                  "uavstabilize threads=2 delay=20 ! fakesink sync=true processing-deadline=0");
+    fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);
+    fail_unless(gst_element_get_state(pipeline, nullptr, nullptr, 10 * GST_SECOND) == GST_STATE_CHANGE_SUCCESS);
+    GstQuery *query = gst_query_new_latency();
+    fail_unless(gst_element_query(pipeline, query));
+    gboolean live = FALSE;
+    GstClockTime min = 0, max = 0;
+    gst_query_parse_latency(query, &live, &min, &max);
+    gst_query_unref(query);
+    fail_unless(live);
+    // videotestsrc adds one frame; the element adds 20.
+    fail_unless_equals_uint64(min, 21 * gst_util_uint64_scale_int(GST_SECOND, 1, 30));
+    fail_unless_equals_int(gst_element_set_state(pipeline, GST_STATE_NULL), GST_STATE_CHANGE_SUCCESS);
+    gst_object_unref(pipeline);
+}
+
+int main(int argc, char **argv)
+{
+    gst_check_init(&argc, &argv);
+    Suite *s = suite_create("uavstabilize-pipeline");
+    TCase *tc = makeTestCase("pipeline", 240);
+    suite_add_tcase(s, tc);
+    tcase_add_test(tc, warm_up);
+    tcase_add_test(tc, playing_to_null_cycles_neither_deadlock_nor_leak);
+    tcase_add_test(tc, pausing_keeps_every_frame);
+    tcase_add_test(tc, live_pipeline_latency_includes_the_delay);
+    return runSuite(s) == 0 ? 0 : 1;
+}

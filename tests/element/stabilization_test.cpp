@@ -1,0 +1,142 @@
+// The element stabilizes: a synthetic shaky flight with a known camera path goes through
+// it, and the path the output follows (reconstructed from the per-frame statistics the
+// element posts) keeps at most a quarter of the input's jitter.
+#include <cmath>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "jitter_metrics.hpp"
+#include "shaky_flight.hpp"
+#include "test_support.hpp"
+
+using namespace element_test;
+
+namespace {
+
+uavstab::Similarity similarityField(const GstStructure *s, const char *prefix)
+{
+    uavstab::Similarity result;
+    const std::string p(prefix);
+    fail_unless(gst_structure_get_double(s, (p + "-dx").c_str(), &result.dx), "no %s-dx", prefix);
+    fail_unless(gst_structure_get_double(s, (p + "-dy").c_str(), &result.dy), "no %s-dy", prefix);
+    fail_unless(gst_structure_get_double(s, (p + "-angle").c_str(), &result.angle), "no %s-angle", prefix);
+    fail_unless(gst_structure_get_double(s, (p + "-scale").c_str(), &result.scale), "no %s-scale", prefix);
+    return result;
+}
+
+struct FrameReport {
+    uavstab::FrameStats stats;
+    GstClockTime timestamp = GST_CLOCK_TIME_NONE;
+};
+
+FrameReport parseReport(const GstStructure *s)
+{
+    FrameReport report;
+    guint64 timestamp = 0, running_time = 0;
+    gint64 index = -1;
+    gboolean skipped = FALSE;
+    fail_unless(gst_structure_get_uint64(s, "timestamp", &timestamp));
+    fail_unless(gst_structure_get_uint64(s, "running-time", &running_time));
+    fail_unless(gst_structure_get_int64(s, "index", &index));
+    fail_unless(gst_structure_get_double(s, "zoom", &report.stats.zoom));
+    fail_unless(gst_structure_get_int(s, "points", &report.stats.points));
+    fail_unless(gst_structure_get_int(s, "inliers", &report.stats.inliers));
+    fail_unless(gst_structure_get_boolean(s, "skipped", &skipped));
+    const gchar *model = gst_structure_get_string(s, "model");
+    fail_unless(model && (g_str_equal(model, "rigid") || g_str_equal(model, "similarity")), "model %s", model);
+    report.timestamp = timestamp;
+    report.stats.index = index;
+    report.stats.skipped = skipped;
+    report.stats.motion = similarityField(s, "motion");
+    report.stats.trajectory = similarityField(s, "trajectory");
+    report.stats.smoothed = similarityField(s, "smoothed");
+    report.stats.correction = similarityField(s, "correction");
+    return report;
+}
+
+} // namespace
+
+GST_START_TEST(warm_up)
+{
+    GstHarness *h = makeHarness(makeStabilizer("threads=2 delay=2 post-messages=true"));
+    GstBus *bus = gst_bus_new();
+    gst_element_set_bus(h->element, bus);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_harness_set_src_caps(h, caps);
+    for (int i = 0; i < 3; ++i)
+        gst_harness_push(h, makeFrame(info, i));
+    gst_harness_push_event(h, gst_event_new_eos());
+    gst_element_set_bus(h->element, nullptr);
+    gst_object_unref(bus);
+    gst_harness_teardown(h);
+}
+GST_END_TEST;
+
+ELEMENT_TEST(shaky_flight_loses_three_quarters_of_its_jitter)
+{
+    uavstab::synthetic::FlightOptions options;
+    options.width = 640;
+    options.height = 360;
+    options.frames = 150;
+    options.format = uavstab::PixelFormat::I420;
+    const uavstab::synthetic::ShakyFlight flight(options);
+
+    GstHarness *h = makeHarness(makeStabilizer("threads=2 post-messages=true"));
+    GstBus *bus = gst_bus_new();
+    gst_element_set_bus(h->element, bus);
+    GstCaps *caps = videoCaps("I420", options.width, options.height);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_harness_set_src_caps(h, caps);
+    gst_harness_set_drop_buffers(h, TRUE);
+    StreamLog log(h->sinkpad);
+
+    for (int i = 0; i < flight.frameCount(); ++i) {
+        GstBuffer *buffer = makeFrame(info, flight.render(i).view());
+        stampFrame(buffer, i);
+        fail_unless_equals_int(gst_harness_push(h, buffer), GST_FLOW_OK);
+    }
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+    fail_unless_equals_int(int(log.buffers().size()), flight.frameCount());
+
+    // One report per frame, in output order, each naming its frame by timestamp.
+    std::vector<FrameReport> reports;
+    while (GstMessage *message = gst_bus_pop_filtered(bus, GST_MESSAGE_ELEMENT)) {
+        const GstStructure *s = gst_message_get_structure(message);
+        if (gst_structure_has_name(s, "uavstabilize"))
+            reports.push_back(parseReport(s));
+        gst_message_unref(message);
+    }
+    fail_unless_equals_int(int(reports.size()), flight.frameCount());
+    std::vector<uavstab::Similarity> input_path, output_path;
+    for (int i = 0; i < int(reports.size()); ++i) {
+        fail_unless_equals_uint64(reports[i].timestamp, i * frameDuration());
+        fail_unless_equals_int(int(reports[i].stats.index), i);
+        input_path.push_back(flight.truePose(i));
+        output_path.push_back(flight.truePose(i) * uavstab::synthetic::outputToInput(reports[i].stats));
+    }
+    const double input = uavstab::synthetic::residualJitter(input_path, options.width, options.height);
+    const double output = uavstab::synthetic::residualJitter(output_path, options.width, options.height);
+    GST_INFO("residual jitter: input %.3f px, output %.3f px", input, output);
+    g_print("residual jitter: input %.3f px, output %.3f px (%.0f %%)\n", input, output, 100.0 * output / input);
+    fail_unless(input > 1.0, "the synthetic flight is not shaky (%.3f)", input);
+    fail_unless(output <= 0.25 * input, "output jitter %.3f px is more than a quarter of the input's %.3f px", output,
+                input);
+
+    gst_element_set_bus(h->element, nullptr);
+    gst_object_unref(bus);
+    gst_harness_teardown(h);
+}
+
+int main(int argc, char **argv)
+{
+    gst_check_init(&argc, &argv);
+    Suite *s = suite_create("uavstabilize-stabilization");
+    TCase *tc = makeTestCase("stabilization");
+    suite_add_tcase(s, tc);
+    tcase_add_test(tc, warm_up);
+    tcase_add_test(tc, shaky_flight_loses_three_quarters_of_its_jitter);
+    return runSuite(s) == 0 ? 0 : 1;
+}
