@@ -2,6 +2,7 @@
 // metadata; events keep their place; flushes, caps changes, draining, latency, bypass
 // and broken input behave.
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <string>
 #include <thread>
@@ -446,6 +447,136 @@ ELEMENT_TEST(properties_have_the_documented_defaults)
     gst_object_unref(element);
 }
 
+ELEMENT_TEST(allocation_proposal_covers_the_held_frames)
+{
+    GstHarness *h = smallHarness("delay=7");
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    GstQuery *query = gst_query_new_allocation(caps, TRUE);
+    fail_unless(gst_pad_peer_query(h->srcpad, query));
+    fail_unless(gst_query_get_n_allocation_pools(query) > 0);
+    GstBufferPool *pool = nullptr;
+    guint size = 0, min = 0, max = 0;
+    gst_query_parse_nth_allocation_pool(query, 0, &pool, &size, &min, &max);
+    fail_unless(pool != nullptr);
+    fail_unless_equals_int(min, 7 + 4);  // delay + frames in estimation, warp and push
+    fail_unless_equals_int(max, 0);
+    const GstVideoInfo info = videoInfo(caps);
+    fail_unless_equals_uint64(size, GST_VIDEO_INFO_SIZE(&info));
+    fail_unless(gst_query_find_allocation_meta(query, GST_VIDEO_META_API_TYPE, nullptr));
+    gst_object_unref(pool);
+    gst_query_unref(query);
+    gst_caps_unref(caps);
+    gst_harness_teardown(h);
+}
+
+ELEMENT_TEST(safe_metas_are_copied_to_warped_frames)
+{
+    GstHarness *h = smallHarness("delay=1");
+    StreamLog log(h->sinkpad, true);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+    GstCaps *reference = gst_caps_new_empty_simple("timestamp/x-test");
+    for (int i = 0; i < 3; ++i) {
+        GstBuffer *buffer = makeFrame(info, i);
+        // No tags: describes the content, survives a warp.
+        gst_buffer_add_reference_timestamp_meta(buffer, reference, guint64(1000 + i), GST_CLOCK_TIME_NONE);
+        // Geometry: a region in input pixels would be wrong after the warp.
+        gst_buffer_add_video_region_of_interest_meta(buffer, "thing", 1, 2, 10, 10);
+        fail_unless_equals_int(gst_harness_push(h, buffer), GST_FLOW_OK);
+    }
+    gst_caps_unref(reference);
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+    const std::vector<LoggedItem> buffers = log.buffers();
+    fail_unless_equals_int(int(buffers.size()), 3);
+    for (int i = 0; i < 3; ++i) {
+        GstReferenceTimestampMeta *meta = gst_buffer_get_reference_timestamp_meta(buffers[i].buffer, nullptr);
+        fail_unless(meta != nullptr, "frame %d lost its reference timestamp", i);
+        fail_unless_equals_uint64(meta->timestamp, guint64(1000 + i));
+        fail_unless(gst_buffer_get_video_region_of_interest_meta(buffers[i].buffer) == nullptr,
+                    "frame %d kept a region of interest in input coordinates", i);
+    }
+    gst_harness_teardown(h);
+}
+
+namespace {
+
+std::atomic<int> live_inputs{0};
+
+void inputFreed(gpointer, GstMiniObject *)
+{
+    --live_inputs;
+}
+
+GstPadProbeReturn slowSink(GstPad *, GstPadProbeInfo *, gpointer)
+{
+    g_usleep(4000);
+    return GST_PAD_PROBE_OK;
+}
+
+} // namespace
+
+ELEMENT_TEST(slow_downstream_bounds_what_is_held)
+{
+    constexpr int kHoldDelay = 5, kThreads = 2, kFrames = 80;
+    GstHarness *h = smallHarness("delay=5");
+    StreamLog log(h->sinkpad);
+    gst_pad_add_probe(h->sinkpad, GST_PAD_PROBE_TYPE_BUFFER, slowSink, nullptr, nullptr);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+    int most_alive = 0;
+    for (int i = 0; i < kFrames; ++i) {
+        GstBuffer *buffer = makeFrame(info, i);
+        ++live_inputs;
+        gst_mini_object_weak_ref(GST_MINI_OBJECT(buffer), inputFreed, nullptr);
+        fail_unless_equals_int(gst_harness_push(h, buffer), GST_FLOW_OK);
+        most_alive = std::max(most_alive, live_inputs.load());
+    }
+    // Held: the delay, the finalized frames the chain lets pile up, the one being pushed.
+    fail_unless(most_alive <= kHoldDelay + kThreads + 4, "%d input frames alive at once", most_alive);
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+    fail_unless_equals_int(int(log.buffers().size()), kFrames);
+    gst_harness_teardown(h);
+    fail_unless_equals_int(live_inputs.load(), 0);
+}
+
+namespace {
+
+GstFlowReturn failingChain(GstPad *, GstObject *, GstBuffer *buffer)
+{
+    gst_buffer_unref(buffer);
+    return GST_FLOW_ERROR;
+}
+
+} // namespace
+
+ELEMENT_TEST(downstream_errors_reach_upstream)
+{
+    GstHarness *h = smallHarness("delay=1");
+    gst_pad_set_chain_function(h->sinkpad, failingChain);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+    GstFlowReturn ret = GST_FLOW_OK;
+    for (int i = 0; i < 200 && ret == GST_FLOW_OK; ++i) {
+        ret = gst_harness_push(h, makeFrame(info, i));
+        g_usleep(1000);
+    }
+    fail_unless_equals_int(ret, GST_FLOW_ERROR);
+    // Remembered until a flush.
+    fail_unless_equals_int(gst_harness_push(h, makeFrame(info, 1000)), GST_FLOW_ERROR);
+    fail_unless(gst_harness_push_event(h, gst_event_new_flush_start()));
+    fail_unless(gst_harness_push_event(h, gst_event_new_flush_stop(TRUE)));
+    GstSegment segment;
+    gst_segment_init(&segment, GST_FORMAT_TIME);
+    fail_unless(gst_harness_push_event(h, gst_event_new_segment(&segment)));
+    fail_unless_equals_int(gst_harness_push(h, makeFrame(info, 1001)), GST_FLOW_OK);
+    gst_harness_teardown(h);
+}
+
 GST_START_TEST(warm_up)
 {
     GstHarness *h = smallHarness("delay=1");
@@ -480,6 +611,10 @@ Suite *flowSuite()
     tcase_add_test(tc, toggling_bypass_never_reorders);
     tcase_add_test(tc, short_buffer_is_an_error_not_a_crash);
     tcase_add_test(tc, properties_have_the_documented_defaults);
+    tcase_add_test(tc, allocation_proposal_covers_the_held_frames);
+    tcase_add_test(tc, safe_metas_are_copied_to_warped_frames);
+    tcase_add_test(tc, slow_downstream_bounds_what_is_held);
+    tcase_add_test(tc, downstream_errors_reach_upstream);
     return s;
 }
 
