@@ -10,6 +10,7 @@
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
+#include <malloc.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -114,6 +115,12 @@ bool resetPeakRss()
     f << "5";
     f.flush();
     return bool(f);
+}
+
+long heapInUseKiB()
+{
+    const struct mallinfo2 m = mallinfo2();
+    return long((m.uordblks + m.hblkhd) / 1024);
 }
 
 // ---- load --------------------------------------------------------------------------

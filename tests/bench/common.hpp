@@ -40,6 +40,7 @@ std::string format(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 long rssKiB();       // VmRSS
 long peakRssKiB();   // VmHWM
 bool resetPeakRss(); // writes 5 to /proc/self/clear_refs: VmHWM := VmRSS
+long heapInUseKiB(); // malloc'ed bytes in use (mallinfo2: heap in use + mmapped chunks)
 
 // CPU used by other processes (and stolen by the hypervisor) while a measurement ran:
 // the machine is shared, so every section reports it beside its numbers.

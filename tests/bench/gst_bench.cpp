@@ -136,7 +136,7 @@ void ElementRun::onHandoff(GstElement *, GstBuffer *buffer, GstPad *, gpointer d
     const long index = GST_CLOCK_TIME_IS_VALID(pts) ? long((pts + self->frames_.frameDuration() / 2) /
                                                            self->frames_.frameDuration())
                                                     : -1;
-    {
+    if (self->recording_) {
         std::lock_guard<std::mutex> lock(self->mutex_);
         self->arrivals_.push_back({index, now, self->pushed_.load()});
     }
@@ -154,7 +154,8 @@ void ElementRun::start()
 void ElementRun::push(long k, bool deep)
 {
     GstBuffer *b = frames_.make(std::size_t(pingPong(k, int(frames_.size()))), k, deep);
-    push_times_.push_back(Clock::now());
+    if (recording_)
+        push_times_.push_back(Clock::now());
     pushed_.store(k + 1);
     gst_app_src_push_buffer(GST_APP_SRC(src_), b);
 }

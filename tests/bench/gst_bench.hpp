@@ -51,6 +51,8 @@ public:
     ElementRun(const ElementRun &) = delete;
     ElementRun &operator=(const ElementRun &) = delete;
 
+    // Per-frame push/arrival records (on by default); off for very long runs.
+    void setRecording(bool on) { recording_ = on; }
     void start();  // to PLAYING
     // Pushes frame k (= buffer pingPong(k)); records its push time.
     void push(long k, bool deep = false);
@@ -82,6 +84,7 @@ private:
     std::atomic<long> received_{0};
     std::atomic<long> pushed_{0};
     std::atomic<long> passed_through_{0};
+    bool recording_ = true;
     std::vector<Clock::time_point> push_times_;
     mutable std::mutex mutex_;
     std::vector<Arrival> arrivals_;

@@ -59,9 +59,9 @@ cv::Size textSize(const std::string &s, double scale = 0.45, int thickness = 1)
 
 // Draws title, grid, ticks and labels; returns the frame mapping data to pixels.
 Frame axes(cv::Mat &img, const std::string &title, const std::string &x_label, const std::string &y_label,
-           double x0, double x1, double y0, double y1, bool x_ticks = true)
+           double x0, double x1, double y0, double y1, int legend_rows, bool x_ticks = true)
 {
-    const int left = 80, right = 20, top = 34, bottom = x_ticks ? 52 : 80;
+    const int left = 80, right = 20, top = 38 + 20 * legend_rows, bottom = x_ticks ? 52 : 80;
     Frame f{cv::Rect(left, top, img.cols - left - right, img.rows - top - bottom), x0, x1, y0, y1};
     text(img, title, {left, 22}, 0.55, kBlack, 1);
     const double ys = niceStep(y1 - y0, 6);
@@ -94,23 +94,43 @@ Frame axes(cv::Mat &img, const std::string &title, const std::string &x_label, c
     return f;
 }
 
+int legendEntryWidth(const std::string &label)
+{
+    return 26 + textSize(label, 0.42).width + 18;
+}
+
+// Rows of legend entries needed between the title and the plot area.
+int legendRows(const std::vector<std::string> &labels, int width)
+{
+    int rows = 1, x = 80;
+    for (const auto &l : labels) {
+        const int w = legendEntryWidth(l);
+        if (x + w > width - 10 && x > 80) {
+            ++rows;
+            x = 80;
+        }
+        x += w;
+    }
+    return rows;
+}
+
 void legend(cv::Mat &img, const Frame &f, const std::vector<std::string> &labels, const std::vector<cv::Scalar> &colors,
             bool boxes)
 {
-    int width = 0;
-    for (const auto &l : labels)
-        width = std::max(width, textSize(l, 0.42).width);
-    const int row = 18;
-    const cv::Rect box(f.area.x + f.area.width - width - 48, f.area.y + 6, width + 42, row * int(labels.size()) + 8);
-    cv::rectangle(img, box, kWhite, cv::FILLED);
-    cv::rectangle(img, box, kGrid, 1);
+    const int rows = legendRows(labels, img.cols);
+    int x = f.area.x, y = f.area.y - 12 - 20 * (rows - 1);
     for (std::size_t i = 0; i < labels.size(); ++i) {
-        const int y = box.y + 4 + row * int(i) + row / 2;
+        const int w = legendEntryWidth(labels[i]);
+        if (x + w > img.cols - 10 && x > f.area.x) {
+            x = f.area.x;
+            y += 20;
+        }
         if (boxes)
-            cv::rectangle(img, {box.x + 6, y - 5}, {box.x + 26, y + 5}, colors[i], cv::FILLED);
+            cv::rectangle(img, {x, y - 5}, {x + 20, y + 5}, colors[i], cv::FILLED);
         else
-            cv::line(img, {box.x + 6, y}, {box.x + 26, y}, colors[i], 2, cv::LINE_AA);
-        text(img, labels[i], {box.x + 32, y + 5}, 0.42);
+            cv::line(img, {x, y}, {x + 20, y}, colors[i], 2, cv::LINE_AA);
+        text(img, labels[i], {x + 26, y + 5}, 0.42);
+        x += w;
     }
 }
 
@@ -160,9 +180,12 @@ cv::Mat linePlot(const std::string &title, const std::string &x_label, const std
     if (x1 <= x0)
         x1 = x0 + 1;
     cv::Mat img(size, CV_8UC3, kWhite);
-    const Frame f = axes(img, title, x_label, y_label, x0, x1, y0, y1);
     std::vector<std::string> labels;
     std::vector<cv::Scalar> colors;
+    for (const Series &s : series)
+        labels.push_back(s.label);
+    const Frame f = axes(img, title, x_label, y_label, x0, x1, y0, y1, legendRows(labels, img.cols));
+    labels.clear();
     for (const Series &s : series) {
         std::vector<cv::Point> pts;
         for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i)
@@ -186,10 +209,10 @@ cv::Mat barChart(const std::string &title, const std::string &y_label, const std
         for (double v : s)
             if (std::isfinite(v))
                 y1 = std::max(y1, v);
-    y1 = y1 > 0 ? y1 * 1.25 : 1.0;  // room for the legend and the value labels
+    y1 = y1 > 0 ? y1 * 1.08 : 1.0;  // room for the value labels
     cv::Mat img(size, CV_8UC3, kWhite);
     const double n = double(std::max<std::size_t>(1, categories.size()));
-    Frame f = axes(img, title, "", y_label, 0, n, 0, y1, false);
+    Frame f = axes(img, title, "", y_label, 0, n, 0, y1, legendRows(series_labels, img.cols), false);
     const std::size_t ns = std::max<std::size_t>(1, series_labels.size());
     for (std::size_t c = 0; c < categories.size(); ++c) {
         const double group = 0.8, bar = group / double(ns);

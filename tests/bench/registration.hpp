@@ -13,8 +13,9 @@
 
 namespace bench {
 
-// ORB features of one frame (luma), detected on a grey image shrunk to at most
-// kMaxWidth wide; coordinates are given back in full-resolution pixels.
+// ORB features of one frame (luma), detected on a grey image shrunk to at most 960
+// pixels wide, positions refined with cornerSubPix; coordinates are given back in
+// full-resolution pixels.
 struct Features {
     std::vector<cv::Point2f> points;  // full-resolution pixels
     cv::Mat descriptors;
@@ -25,7 +26,7 @@ class FeatureExtractor {
 public:
     // `border`: share of width/height at each edge where no features are taken
     // (stabilized frames may have black or mirrored borders there).
-    explicit FeatureExtractor(int max_features = 1500, double border = 0.06);
+    explicit FeatureExtractor(int max_features = 1200, double border = 0.06);
     Features extract(const cv::Mat &gray) const;
 
 private:

@@ -1,0 +1,917 @@
+// Quality of ours and of the peers on the same input:
+//   synthetic  ShakyFlight clips with known true motion (seeds x moving objects x 360p/720p):
+//              residual jitter (px), coverage, zoom, distortion
+//   drone      the real drone clip (../shared/data/aerial_drone_nadir_steady_1920x1080.mp4) with
+//              known synthetic shake added: the same, plus stability score and ITF
+//   real       the real clips in ../shared/data: stability score (Liu et al. 2013), ITF,
+//              coverage and zoom
+// Output motion is measured with ORB + RANSAC (registration.hpp), independently of the
+// stabilizer's tracker; ours is also cross-checked against its own FrameStats.
+//
+//   uavstab-bench-quality --out DIR [--quick] [--data DIR] [--only synthetic|drone|real]...
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <dirent.h>
+#include <iostream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "common.hpp"
+#include "jitter_metrics.hpp"
+#include "plot.hpp"
+#include "registration.hpp"
+#include "shaky_flight.hpp"
+#include "uavstab/frame_warper.hpp"
+#include "uavstab/stabilizer.hpp"
+
+using namespace uavstab;
+using namespace bench;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+const double kNaN = std::nan("");
+
+// ---- clips -----------------------------------------------------------------------------
+
+struct Clip {
+    std::string name;   // short id (file names, keys)
+    std::string label;  // for tables
+    std::string group;  // synthetic clips are averaged per group
+    int width = 0, height = 0;
+    int fps_num = 30, fps_den = 1;
+    std::vector<FrameBuffer> frames;  // I420
+    std::vector<Similarity> truth;    // frame (centred) -> world; empty when unknown
+    std::vector<Similarity> intended; // the smooth part of the truth (synthetic only)
+    double fps() const { return double(fps_num) / fps_den; }
+};
+
+cv::Mat lumaOf(const FrameBuffer &f)
+{
+    return cv::Mat(f.height(), f.width(), CV_8UC1, const_cast<std::uint8_t *>(f.row(0, 0)),
+                   std::size_t(f.view().planes[0].stride));
+}
+
+Clip syntheticClip(int width, int height, std::uint32_t seed, int objects, int frames)
+{
+    synthetic::FlightOptions o;
+    o.width = width;
+    o.height = height;
+    o.frames = frames;
+    o.seed = seed;
+    o.moving_objects = objects;
+    const synthetic::ShakyFlight flight(o);
+    Clip c;
+    c.name = format("syn_%dx%d_s%u%s", width, height, seed, objects ? "_obj" : "");
+    c.label = format("synthetic %dx%d seed %u%s", width, height, seed, objects ? ", 3 moving objects" : "");
+    c.group = format("%dx%d%s", width, height, objects ? " / moving objects" : "");
+    c.width = width;
+    c.height = height;
+    for (int i = 0; i < frames; ++i) {
+        c.frames.push_back(frameFromBgr(flight.renderBgr(i), PixelFormat::I420));
+        c.truth.push_back(flight.truePose(i));
+        c.intended.push_back(flight.intendedPose(i));
+    }
+    return c;
+}
+
+struct ProbeInfo {
+    int width = 0, height = 0, fps_num = 0, fps_den = 1;
+};
+
+ProbeInfo probe(const std::string &path)
+{
+    ProbeInfo p;
+    const std::string out = commandOutput("ffprobe -v error -select_streams v:0 -show_entries "
+                                          "stream=width,height,avg_frame_rate -of csv=p=0 " +
+                                          shellQuote(path) + " 2>/dev/null");
+    std::sscanf(out.c_str(), "%d,%d,%d/%d", &p.width, &p.height, &p.fps_num, &p.fps_den);
+    if (p.fps_num <= 0 || p.fps_den <= 0) {
+        p.fps_num = 30;
+        p.fps_den = 1;
+    }
+    return p;
+}
+
+// Decodes up to max_frames frames of a real clip to I420 in memory.
+bool decodeClip(const std::string &path, int max_frames, Clip *c)
+{
+    const ProbeInfo p = probe(path);
+    if (p.width <= 0 || p.height <= 0)
+        return false;
+    c->width = p.width;
+    c->height = p.height;
+    c->fps_num = p.fps_num;
+    c->fps_den = p.fps_den;
+    RawPipeReader reader("ffmpeg -hide_banner -loglevel error -nostdin -i " + shellQuote(path) +
+                             format(" -frames:v %d -fps_mode passthrough -f rawvideo -pix_fmt yuv420p -", max_frames),
+                         p.width, p.height);
+    FrameBuffer f;
+    while (int(c->frames.size()) < max_frames && reader.read(f))
+        c->frames.push_back(f);
+    reader.close();
+    return c->frames.size() >= 10;
+}
+
+// The steady drone clip with a known shake: shaky(q) = steady(J_i(q)), J_i = zoom * shake_i
+// (zoom 0.94 reads the central 94 %, so the shake rarely reaches past the edge; where it
+// does, the picture is mirrored). The shake is ShakyFlight's jitter model, scaled to 1080p.
+Clip shakenDrone(const Clip &steady, std::uint32_t seed)
+{
+    synthetic::FlightOptions o;
+    o.width = steady.width;
+    o.height = steady.height;
+    o.frames = int(steady.frames.size());
+    o.fps = steady.fps();
+    o.seed = seed;
+    o.pan_speed = 0;
+    o.rotation_amplitude_deg = 0;
+    const double s = steady.width / 640.0;  // the model's pixels are 640-wide frames'
+    o.noise_px *= s;
+    o.band_px *= s;
+    const synthetic::ShakyFlight flight(o);
+    Clip c;
+    c.name = "drone_shaken";
+    c.label = format("real drone %dx%d + known shake", steady.width, steady.height);
+    c.group = "drone 1080p / known shake";
+    c.width = steady.width;
+    c.height = steady.height;
+    c.fps_num = steady.fps_num;
+    c.fps_den = steady.fps_den;
+    for (std::size_t i = 0; i < steady.frames.size(); ++i) {
+        const Similarity shake = flight.intendedPose(int(i)).inverse() * flight.truePose(int(i));
+        const Similarity j = Similarity{0, 0, 0, 0.94} * shake;
+        const FrameBuffer &in = steady.frames[i];
+        FrameBuffer out(PixelFormat::I420, in.width(), in.height());
+        for (int p = 0; p < 3; ++p) {
+            double m[6];
+            FrameWarper::planeMatrix(in.view(), p, j, m);
+            const cv::Mat src(in.view().planeHeight(p), in.view().planeWidth(p), CV_8UC1,
+                              const_cast<std::uint8_t *>(in.row(p, 0)), std::size_t(in.view().planes[p].stride));
+            cv::Mat dst(out.view().planeHeight(p), out.view().planeWidth(p), CV_8UC1, out.row(p, 0),
+                        std::size_t(out.view().planes[p].stride));
+            cv::warpAffine(src, dst, cv::Mat(2, 3, CV_64F, m), dst.size(), cv::INTER_CUBIC | cv::WARP_INVERSE_MAP,
+                           cv::BORDER_REFLECT_101);
+        }
+        c.frames.push_back(std::move(out));
+        c.truth.push_back(j);
+        c.intended.push_back(Similarity{0, 0, 0, 0.94});
+    }
+    return c;
+}
+
+// ---- methods ---------------------------------------------------------------------------
+
+enum class Kind { Input, Ours, Deshake, VidstabDefault, VidstabZoom };
+
+struct Method {
+    std::string key, label;
+    Kind kind;
+    StabilizerConfig config;
+};
+
+std::vector<Method> methods(bool deshake, bool vidstab)
+{
+    std::vector<Method> m;
+    m.push_back({"input", "input (no stabilization)", Kind::Input, {}});
+    StabilizerConfig box;  // library defaults: delay 20, box r10, crop 0.08
+    m.push_back({"ours_box10", "ours box r10 (default)", Kind::Ours, box});
+    StabilizerConfig gauss;
+    gauss.smoother = SmootherKind::Gaussian;
+    gauss.smoothing_radius = 20;
+    gauss.delay = 20;
+    m.push_back({"ours_gauss20", "ours gaussian r20", Kind::Ours, gauss});
+    if (vidstab) {
+        m.push_back({"vidstab", "vid.stab default (optzoom=1)", Kind::VidstabDefault, {}});
+        m.push_back({"vidstab_zoom", "vid.stab zoom 8.7 % (= ours)", Kind::VidstabZoom, {}});
+    }
+    if (deshake)
+        m.push_back({"deshake", "ffmpeg deshake", Kind::Deshake, {}});
+    return m;
+}
+
+struct Output {
+    std::vector<cv::Mat> luma;
+    std::vector<FrameStats> stats;  // ours only
+    double seconds = 0;
+    std::string error;
+};
+
+Output runOurs(const Clip &clip, const StabilizerConfig &config)
+{
+    Output out;
+    Stabilizer stabilizer(config);
+    OutputPool pool(PixelFormat::I420, clip.width, clip.height);
+    auto take = [&](StabilizedFrame f) {
+        const auto &slot = static_cast<const PoolSlot &>(*f.slot);
+        const FrameBuffer &shown =
+            f.outcome == Outcome::Warped ? *slot.output() : clip.frames[std::size_t(slot.index())];
+        out.luma.push_back(lumaOf(shown).clone());
+        out.stats.push_back(f.stats);
+        if (f.outcome != Outcome::Warped && out.error.empty())
+            out.error = "frame " + std::to_string(slot.index()) + " not warped: " + f.error;
+    };
+    const auto t0 = Clock::now();
+    for (std::size_t i = 0; i < clip.frames.size(); ++i) {
+        stabilizer.push(std::make_unique<PoolSlot>(clip.frames[i].view(), pool, long(i)));
+        while (auto f = stabilizer.tryPop())
+            take(std::move(*f));
+    }
+    stabilizer.flush();
+    while (auto f = stabilizer.waitPop())
+        take(std::move(*f));
+    out.seconds = secondsBetween(t0, Clock::now());
+    return out;
+}
+
+Output runFfmpeg(const Clip &clip, const std::string &raw, const std::string &filter, const std::string &pre_filter)
+{
+    Output out;
+    const std::string in = format("ffmpeg -hide_banner -loglevel error -nostdin -f rawvideo -pix_fmt yuv420p -s %dx%d "
+                                  "-framerate %d/%d -i %s ",
+                                  clip.width, clip.height, clip.fps_num, clip.fps_den, raw.c_str());
+    const auto t0 = Clock::now();
+    if (!pre_filter.empty() && runCommand(in + "-vf " + pre_filter + " -f null -") != 0) {
+        out.error = "ffmpeg failed: " + pre_filter;
+        return out;
+    }
+    RawPipeReader reader(in + "-vf " + filter + " -fps_mode passthrough -f rawvideo -pix_fmt yuv420p -", clip.width,
+                         clip.height);
+    FrameBuffer f;
+    while (reader.read(f))
+        out.luma.push_back(lumaOf(f).clone());
+    const int status = reader.close();
+    out.seconds = secondsBetween(t0, Clock::now());
+    if (status != 0)
+        out.error = "ffmpeg exited with " + std::to_string(status) + " (" + filter + ")";
+    else if (out.luma.size() != clip.frames.size())
+        out.error = format("ffmpeg gave %zu frames for %zu", out.luma.size(), clip.frames.size());
+    return out;
+}
+
+// ---- analysis ----------------------------------------------------------------------------
+
+std::vector<Features> featuresOf(const std::vector<cv::Mat> &luma)
+{
+    std::vector<Features> f(luma.size());
+    cv::parallel_for_(cv::Range(0, int(luma.size())), [&](const cv::Range &r) {
+        const FeatureExtractor extractor;
+        for (int i = r.start; i < r.end; ++i)
+            f[std::size_t(i)] = extractor.extract(luma[std::size_t(i)]);
+    });
+    return f;
+}
+
+double psnrCentral(const cv::Mat &a, const cv::Mat &b)
+{
+    const cv::Rect r(int(a.cols * 0.2), int(a.rows * 0.2), int(a.cols * 0.6), int(a.rows * 0.6));
+    cv::Mat diff;
+    cv::absdiff(a(r), b(r), diff);
+    diff.convertTo(diff, CV_64F);
+    const double mse = cv::mean(diff.mul(diff))[0];
+    return mse <= 1e-10 ? 100.0 : std::min(100.0, 10.0 * std::log10(255.0 * 255.0 / mse));
+}
+
+// Share of spectral energy in bins 1..5 among bins 1..n/2 (one-sided, DC excluded).
+double lowFrequencyShare(const std::vector<double> &signal)
+{
+    const int n = int(signal.size());
+    if (n < 12)
+        return kNaN;
+    cv::Mat in(1, n, CV_64F, const_cast<double *>(signal.data())), spectrum;
+    cv::dft(in, spectrum, cv::DFT_COMPLEX_OUTPUT);
+    double low = 0, total = 0;
+    for (int k = 1; k <= n / 2; ++k) {
+        const cv::Vec2d c = spectrum.at<cv::Vec2d>(0, k);
+        const double e = c[0] * c[0] + c[1] * c[1];
+        total += e;
+        if (k <= 5)
+            low += e;
+    }
+    return total > 0 ? low / total : kNaN;
+}
+
+double cornerRms(const Similarity &a, const Similarity &b, int w, int h)
+{
+    const double hx = (w - 1) * 0.5, hy = (h - 1) * 0.5;
+    double s = 0;
+    for (const Point2 c : {Point2{-hx, -hy}, Point2{hx, -hy}, Point2{-hx, hy}, Point2{hx, hy}}) {
+        const Point2 p = a.apply(c), q = b.apply(c);
+        s += (p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y);
+    }
+    return std::sqrt(s / 4);
+}
+
+struct Metrics {
+    std::string error;
+    int frames = 0;
+    double seconds = 0;
+    int failed_out2in = 0, failed_inter = 0;
+    // truth-based (synthetic, drone)
+    double jitter = kNaN, jitter_stats = kNaN, crosscheck_px = kNaN;
+    std::vector<Similarity> path;  // true world pose of the output frames (for plots)
+    // geometry from the registered output -> input
+    double coverage_mean = kNaN, coverage_min = kNaN, zoom_mean = kNaN, zoom_max = kNaN, distortion_max = kNaN;
+    double coverage_stats_mean = kNaN, coverage_stats_min = kNaN, zoom_stats = kNaN;
+    // real-clip measures
+    double stability_t = kNaN, stability_r = kNaN, itf = kNaN;
+    double velocity_t = kNaN, velocity_r = kNaN;  // the same ratio on the inter-frame motion
+    std::vector<FrameStats> stats;
+};
+
+// Replaces failed registrations by the nearest earlier good one (or identity).
+std::vector<Similarity> filled(const std::vector<Registration> &r, const Similarity &fallback, int *failed)
+{
+    std::vector<Similarity> s(r.size(), fallback);
+    Similarity last = fallback;
+    for (std::size_t i = 0; i < r.size(); ++i) {
+        if (r[i].ok)
+            last = r[i].similarity;
+        else
+            ++*failed;
+        s[i] = last;
+    }
+    return s;
+}
+
+Metrics analyze(const Clip &clip, const std::vector<Features> &input_features, const Method &method, Output out,
+                bool real_measures)
+{
+    Metrics m;
+    m.error = out.error;
+    m.seconds = out.seconds;
+    const std::size_t n = std::min(out.luma.size(), clip.frames.size());
+    m.frames = int(n);
+    if (n < 10) {
+        if (m.error.empty())
+            m.error = "too few frames";
+        return m;
+    }
+    out.luma.resize(n);
+    const bool is_input = method.kind == Kind::Input;
+    const std::vector<Features> own = is_input ? std::vector<Features>{} : featuresOf(out.luma);
+    const std::vector<Features> &feat = is_input ? input_features : own;
+
+    // Output -> input registration (identity for the input itself).
+    std::vector<Registration> out2in(n);
+    if (!is_input)
+        cv::parallel_for_(cv::Range(0, int(n)), [&](const cv::Range &r) {
+            for (int i = r.start; i < r.end; ++i)
+                out2in[std::size_t(i)] = registerFeatures(feat[std::size_t(i)], input_features[std::size_t(i)]);
+        });
+    std::vector<Similarity> o2i = is_input ? std::vector<Similarity>(n) : filled(out2in, Similarity{}, &m.failed_out2in);
+
+    if (!clip.truth.empty()) {
+        std::vector<Similarity> path(n);
+        for (std::size_t i = 0; i < n; ++i)
+            path[i] = clip.truth[i] * o2i[i];
+        m.jitter = synthetic::residualJitter(path, clip.width, clip.height);
+        m.path = path;
+    }
+    if (!is_input) {
+        std::vector<double> cov, zoom;
+        double dist = 1.0;
+        for (std::size_t i = 0; i < n; ++i) {
+            cov.push_back(synthetic::coverage(o2i[i], clip.width, clip.height));
+            if (!out2in[i].ok)
+                continue;
+            double s1, s2;
+            singularValues(out2in[i].affine, &s1, &s2);  // output -> input
+            zoom.push_back(1.0 / std::sqrt(s1 * s2));    // input -> output
+            dist = std::max(dist, s1 / s2);
+        }
+        m.coverage_mean = mean(cov);
+        m.coverage_min = minOf(cov);
+        m.zoom_mean = mean(zoom);
+        m.zoom_max = maxOf(zoom);
+        m.distortion_max = dist;
+    } else {
+        m.coverage_mean = m.coverage_min = m.zoom_mean = m.zoom_max = m.distortion_max = 1.0;
+    }
+    if (!out.stats.empty()) {
+        std::vector<Similarity> own_path;
+        std::vector<double> diff, cov;
+        for (std::size_t i = 0; i < n; ++i) {
+            const Similarity s = synthetic::outputToInput(out.stats[i]);
+            if (!clip.truth.empty())
+                own_path.push_back(clip.truth[i] * s);
+            cov.push_back(synthetic::coverage(s, clip.width, clip.height));
+            if (out2in[i].ok) {
+                const double d = cornerRms(s, out2in[i].similarity, clip.width, clip.height);
+                diff.push_back(d * d);
+            }
+        }
+        if (!own_path.empty())
+            m.jitter_stats = synthetic::residualJitter(own_path, clip.width, clip.height);
+        m.crosscheck_px = std::sqrt(mean(diff));
+        m.coverage_stats_mean = mean(cov);
+        m.coverage_stats_min = minOf(cov);
+        m.zoom_stats = out.stats.front().zoom;
+        m.stats = out.stats;
+    }
+
+    if (real_measures) {
+        // Inter-frame motion of the output (frame i -> frame i-1), accumulated.
+        std::vector<Registration> inter(n);
+        cv::parallel_for_(cv::Range(1, int(n)), [&](const cv::Range &r) {
+            for (int i = r.start; i < r.end; ++i)
+                inter[std::size_t(i)] = registerFeatures(feat[std::size_t(i)], feat[std::size_t(i) - 1]);
+        });
+        inter[0].ok = true;  // frame 0: identity
+        int failed = 0;
+        const std::vector<Similarity> motion = filled(inter, Similarity{}, &failed);
+        m.failed_inter = failed;
+        Similarity pose;
+        std::vector<double> t, r, vt, vr;
+        for (std::size_t i = 0; i < n; ++i) {
+            if (i > 0) {
+                pose = pose * motion[i];
+                vt.push_back(std::hypot(motion[i].dx, motion[i].dy));
+                vr.push_back(motion[i].angle);
+            }
+            t.push_back(std::hypot(pose.dx, pose.dy));
+            r.push_back(pose.angle);
+        }
+        m.stability_t = lowFrequencyShare(t);
+        m.stability_r = lowFrequencyShare(r);
+        m.velocity_t = lowFrequencyShare(vt);
+        m.velocity_r = lowFrequencyShare(vr);
+        std::vector<double> psnr(n - 1);
+        cv::parallel_for_(cv::Range(1, int(n)), [&](const cv::Range &rr) {
+            for (int i = rr.start; i < rr.end; ++i)
+                psnr[std::size_t(i) - 1] = psnrCentral(out.luma[std::size_t(i)], out.luma[std::size_t(i) - 1]);
+        });
+        m.itf = mean(psnr);
+    }
+    return m;
+}
+
+struct ClipResult {
+    Clip clip;  // frames released after the run
+    std::vector<Method> methods;
+    std::vector<Metrics> metrics;
+};
+
+ClipResult evaluate(Clip clip, const std::vector<Method> &ms, bool real_measures)
+{
+    ClipResult result;
+    const auto t0 = Clock::now();
+    std::printf("  %s (%zu frames)...", clip.label.c_str(), clip.frames.size());
+    std::fflush(stdout);
+    std::vector<cv::Mat> in_luma;
+    for (const FrameBuffer &f : clip.frames)
+        in_luma.push_back(lumaOf(f));
+    const std::vector<Features> input_features = featuresOf(in_luma);
+    ScratchDir scratch("quality");
+    const std::string raw = scratch.file("in.yuv"), trf = scratch.file("t.trf");
+    bool raw_written = false;
+    for (const Method &m : ms) {
+        Output out;
+        if (m.kind != Kind::Input && m.kind != Kind::Ours && !raw_written) {
+            std::FILE *f = std::fopen(raw.c_str(), "wb");
+            for (const FrameBuffer &fb : clip.frames)
+                writeRawI420(f, fb.view());
+            std::fclose(f);
+            raw_written = true;
+        }
+        switch (m.kind) {
+        case Kind::Input:
+            for (const cv::Mat &l : in_luma)
+                out.luma.push_back(l);
+            break;
+        case Kind::Ours:
+            out = runOurs(clip, m.config);
+            break;
+        case Kind::Deshake:
+            out = runFfmpeg(clip, raw, "deshake=edge=blank", "");
+            break;
+        case Kind::VidstabDefault:
+            out = runFfmpeg(clip, raw, "vidstabtransform=input=" + trf + ":crop=black",
+                            "vidstabdetect=result=" + trf);
+            break;
+        case Kind::VidstabZoom:
+            out = runFfmpeg(clip, raw, "vidstabtransform=input=" + trf + ":crop=black:optzoom=0:zoom=8.7", "");
+            break;
+        }
+        result.metrics.push_back(analyze(clip, input_features, m, std::move(out), real_measures));
+        result.methods.push_back(m);
+    }
+    std::printf(" %.1f s\n", secondsBetween(t0, Clock::now()));
+    std::fflush(stdout);
+    clip.frames.clear();
+    clip.frames.shrink_to_fit();
+    result.clip = std::move(clip);
+    return result;
+}
+
+// ---- reporting ---------------------------------------------------------------------------
+
+std::string num(double v, const char *f = "%.2f")
+{
+    return std::isfinite(v) ? format(f, v) : "n/a";
+}
+
+const Metrics *find(const ClipResult &r, const std::string &key)
+{
+    for (std::size_t i = 0; i < r.methods.size(); ++i)
+        if (r.methods[i].key == key)
+            return &r.metrics[i];
+    return nullptr;
+}
+
+std::string errorsOf(const std::vector<ClipResult> &results)
+{
+    std::string s;
+    for (const ClipResult &r : results)
+        for (std::size_t i = 0; i < r.methods.size(); ++i)
+            if (!r.metrics[i].error.empty())
+                s += "- " + r.clip.label + ", " + r.methods[i].label + ": " + r.metrics[i].error + "\n";
+    return s;
+}
+
+// One frame's trajectory figure: dx, dy, angle of the raw path and of the smoothed paths.
+void trajectoryPlot(const Options &o, const ClipResult &r, const std::string &file)
+{
+    const Metrics *box = find(r, "ours_box10"), *gauss = find(r, "ours_gauss20");
+    if (!box || box->stats.empty())
+        return;
+    const std::size_t n = box->stats.size();
+    std::vector<double> x(n);
+    for (std::size_t i = 0; i < n; ++i)
+        x[i] = double(i);
+    auto component = [&](const std::vector<FrameStats> &stats, bool smoothed, int k) {
+        std::vector<double> v;
+        for (const FrameStats &s : stats) {
+            const Similarity &p = smoothed ? s.smoothed : s.trajectory;
+            v.push_back(k == 0 ? p.dx : k == 1 ? p.dy : p.angle * 180.0 / kPi);
+        }
+        return v;
+    };
+    // The true intended (shake-free) path in the stabilizer's frame-0 coordinates.
+    std::vector<Similarity> intended;
+    if (!r.clip.truth.empty() && !r.clip.intended.empty())
+        for (std::size_t i = 0; i < n && i < r.clip.intended.size(); ++i)
+            intended.push_back(r.clip.truth[0].inverse() * r.clip.intended[i]);
+    const char *names[3] = {"dx (px)", "dy (px)", "angle (deg)"};
+    std::vector<cv::Mat> panels;
+    for (int k = 0; k < 3; ++k) {
+        std::vector<Series> s;
+        s.push_back({"raw camera path (FrameStats.trajectory)", x, component(box->stats, false, k), paletteColor(0), 1});
+        if (!intended.empty()) {
+            std::vector<double> v;
+            for (const Similarity &p : intended)
+                v.push_back(k == 0 ? p.dx : k == 1 ? p.dy : p.angle * 180.0 / kPi);
+            s.push_back({"true intended path (no shake)", x, v, paletteColor(3), 1});
+        }
+        s.push_back({"smoothed, box r10 (default)", x, component(box->stats, true, k), paletteColor(1), 2});
+        if (gauss && gauss->stats.size() == n)
+            s.push_back({"smoothed, gaussian r20", x, component(gauss->stats, true, k), paletteColor(4), 2});
+        panels.push_back(linePlot(format("%s: %s", r.clip.label.c_str(), names[k]), "frame", names[k], s));
+    }
+    writePng(o.out_dir + "/" + file, stackVertically(panels));
+}
+
+// Residual jitter per method, one group of bars per clip group.
+void jitterPlot(const Options &o, const std::vector<ClipResult> &results, const std::vector<Method> &ms)
+{
+    std::vector<std::string> groups;
+    for (const ClipResult &r : results)
+        if (!r.clip.truth.empty() && std::find(groups.begin(), groups.end(), r.clip.group) == groups.end())
+            groups.push_back(r.clip.group);
+    if (groups.empty())
+        return;
+    std::vector<std::string> labels;
+    std::vector<std::vector<double>> values;
+    std::vector<cv::Scalar> colors;
+    for (std::size_t k = 0; k < ms.size(); ++k) {
+        labels.push_back(ms[k].label);
+        colors.push_back(paletteColor(int(k)));
+        std::vector<double> v;
+        for (const std::string &g : groups) {
+            std::vector<double> j;
+            for (const ClipResult &r : results)
+                if (r.clip.group == g)
+                    if (const Metrics *m = find(r, ms[k].key); m && std::isfinite(m->jitter))
+                        j.push_back(m->jitter);
+            v.push_back(j.empty() ? kNaN : mean(j));
+        }
+        values.push_back(v);
+    }
+    writePng(o.out_dir + "/residual_jitter.png",
+             barChart("Residual jitter (px, RMS of the 4 corners' path minus its Gaussian low-pass, sigma 8 frames; "
+                      "mean over seeds) - lower is better",
+                      "residual jitter (px)", groups, labels, values, colors, {1400, 520}));
+}
+
+std::vector<double> collect(const std::vector<ClipResult> &results, const std::string &key, double Metrics::*field)
+{
+    std::vector<double> v;
+    for (const ClipResult &r : results)
+        if (const Metrics *m = find(r, key); m && std::isfinite(m->*field))
+            v.push_back(m->*field);
+    return v;
+}
+
+// Per-method geometry + jitter over a set of clips with known truth.
+Table truthTable(const Options &o, const std::string &prefix, const std::vector<ClipResult> &results,
+                 const std::vector<Method> &ms, bool real_measures)
+{
+    std::vector<std::string> header{"method", "residual jitter px", "of input", "vs vid.stab default",
+                                    "coverage mean", "coverage min", "zoom mean (max)", "distortion max"};
+    if (real_measures) {
+        header.push_back("stability t / r");
+        header.push_back("ITF dB");
+    }
+    header.push_back("failed registrations");
+    Table t(header);
+    const double input_j = mean(collect(results, "input", &Metrics::jitter));
+    const double vidstab_j = mean(collect(results, "vidstab", &Metrics::jitter));
+    for (const Method &m : ms) {
+        const double j = mean(collect(results, m.key, &Metrics::jitter));
+        int failed = 0;
+        for (const ClipResult &r : results)
+            if (const Metrics *x = find(r, m.key))
+                failed += x->failed_out2in + x->failed_inter;
+        const double cov_mean = mean(collect(results, m.key, &Metrics::coverage_mean));
+        const double cov_min = minOf(collect(results, m.key, &Metrics::coverage_min));
+        const double zoom = mean(collect(results, m.key, &Metrics::zoom_mean));
+        const double zoom_max = maxOf(collect(results, m.key, &Metrics::zoom_max));
+        const double dist = maxOf(collect(results, m.key, &Metrics::distortion_max));
+        std::vector<std::string> row{m.label, num(j), num(100 * j / input_j, "%.0f %%"),
+                                     std::isfinite(vidstab_j) ? num(j / vidstab_j, "%.2fx") : "n/a",
+                                     num(cov_mean, "%.4f"), num(cov_min, "%.4f"),
+                                     num(zoom, "%.3f") + " (" + num(zoom_max, "%.3f") + ")", num(dist, "%.4f")};
+        if (real_measures) {
+            row.push_back(num(mean(collect(results, m.key, &Metrics::stability_t)), "%.3f") + " / " +
+                          num(mean(collect(results, m.key, &Metrics::stability_r)), "%.3f"));
+            row.push_back(num(mean(collect(results, m.key, &Metrics::itf)), "%.2f"));
+        }
+        row.push_back(std::to_string(failed));
+        t.row(row);
+        const std::string key = "quality." + prefix + "." + m.key;
+        putResult(o, key + ".jitter", j);
+        putResult(o, key + ".coverage_mean", cov_mean);
+        putResult(o, key + ".coverage_min", cov_min);
+        putResult(o, key + ".zoom_mean", zoom);
+        putResult(o, key + ".zoom_max", zoom_max);
+        putResult(o, key + ".distortion_max", dist);
+    }
+    return t;
+}
+
+// Ours: the registered measurement against the stabilizer's own account (FrameStats).
+Table crossCheckTable(const std::vector<ClipResult> &results)
+{
+    Table t({"clip", "ours", "jitter (registered) px", "jitter (own FrameStats) px",
+             "RMS corner gap registered vs FrameStats px", "coverage from FrameStats mean / min", "zoom"});
+    for (const ClipResult &r : results)
+        for (std::size_t i = 0; i < r.methods.size(); ++i) {
+            if (r.methods[i].kind != Kind::Ours)
+                continue;
+            const Metrics &m = r.metrics[i];
+            t.row({r.clip.label, r.methods[i].label, num(m.jitter, "%.3f"), num(m.jitter_stats, "%.3f"),
+                   num(m.crosscheck_px, "%.3f"),
+                   num(m.coverage_stats_mean, "%.4f") + " / " + num(m.coverage_stats_min, "%.4f"),
+                   num(m.zoom_stats, "%.3f")});
+        }
+    return t;
+}
+
+// "gaussian r20 vs box r10" in one sentence.
+std::string boxVsGauss(const std::vector<ClipResult> &results)
+{
+    int better = 0, total = 0;
+    std::vector<double> ratio;
+    for (const ClipResult &r : results) {
+        const Metrics *b = find(r, "ours_box10"), *g = find(r, "ours_gauss20");
+        if (!b || !g || !std::isfinite(b->jitter) || !std::isfinite(g->jitter))
+            continue;
+        ++total;
+        better += g->jitter < b->jitter;
+        ratio.push_back(g->jitter / b->jitter);
+    }
+    if (!total)
+        return "";
+    return format("Gaussian r20 vs box r10 (both delay 20): gaussian leaves %.0f %% of box's residual jitter on "
+                  "average (per-clip ratio %.2f-%.2f), lower on %d of %d clips: %s is better here.",
+                  100 * mean(ratio), minOf(ratio), maxOf(ratio), better, total,
+                  better * 2 > total ? "**gaussian r20**" : "**box r10**");
+}
+
+void sectionSynthetic(const Options &o, const std::vector<Method> &ms, std::vector<ClipResult> *truth_results)
+{
+    Fragment frag(o, "quality_synthetic");
+    std::vector<Resolution> sizes{{640, 360}, {1280, 720}};
+    std::vector<std::uint32_t> seeds{1, 2, 3};
+    int frames = 200;
+    if (o.quick) {
+        sizes = {{640, 360}};
+        seeds = {1};
+        frames = 150;
+    }
+    frag.text(format(
+        "Synthetic clips (ShakyFlight over tests/data/aero1.jpg, known true camera poses): %zu seeds x {no moving "
+        "objects, 3 moving objects} x {%s}, %d frames at 30 fps each. Default jitter model (0.5 px white + 3 px RMS "
+        "2-8 Hz band, 0.05 + 0.3 deg rotation), pan ~1.5 px/frame, slow yaw. "
+        "**Residual jitter** = RMS over the four frame corners of (output camera path - its Gaussian low-pass, "
+        "sigma 8 frames) with `synthetic::residualJitter`; the output path is truePose_i * output_to_input_i, "
+        "output_to_input_i measured by registering each output frame to its input frame (ORB + RANSAC similarity, "
+        "features only in the central 88 %%), the same way for ours and the peers. **Coverage** = share of the "
+        "output frame showing picture (`synthetic::coverage` of the registered transform). Peers: vid.stab with "
+        "crop=black (default optzoom=1 = optimal static zoom; and optzoom=0 zoom=8.7 = ours' zoom 1.087), "
+        "deshake with edge=blank; all other settings default.",
+        seeds.size(), sizes.size() == 2 ? "640x360, 1280x720" : "640x360", frames));
+    std::vector<ClipResult> results;
+    for (const Resolution &res : sizes)
+        for (int objects : {0, 3})
+            for (std::uint32_t seed : seeds)
+                results.push_back(
+                    evaluate(syntheticClip(res.width, res.height, seed, objects, frames), ms, false));
+
+    std::vector<std::string> header{"clip"};
+    for (const Method &m : ms)
+        header.push_back(m.label);
+    Table per_clip(header);
+    for (const ClipResult &r : results) {
+        std::vector<std::string> row{r.clip.label};
+        for (const Method &m : ms) {
+            const Metrics *x = find(r, m.key);
+            row.push_back(x ? num(x->jitter) : "n/a");
+        }
+        per_clip.row(row);
+    }
+    frag.text("Over all synthetic clips (jitter: mean of the per-clip values; coverage min, zoom max and distortion "
+              "max: over all frames; zoom = input -> output scale; distortion = ratio of the singular values of "
+              "the linear part of input -> output, from a full affine fitted to the registration's inliers):");
+    frag.table(truthTable(o, "syn", results, ms, false));
+    frag.text(boxVsGauss(results));
+    frag.text("Residual jitter (px) per clip:");
+    frag.table(per_clip);
+    frag.text("Cross-check of ours: the registered measurement against the stabilizer's own account "
+              "(`synthetic::outputToInput(FrameStats)`); the corner gap is the measuring stick's error.");
+    frag.table(crossCheckTable(results));
+    const std::string errors = errorsOf(results);
+    if (!errors.empty())
+        frag.text("Problems:\n\n" + errors);
+    for (const ClipResult &r : results)
+        if (r.clip.name == "syn_1280x720_s1_obj" || (o.quick && r.clip.name == "syn_640x360_s1_obj")) {
+            trajectoryPlot(o, r, "trajectory_synthetic.png");
+            frag.text(format("![trajectory](trajectory_synthetic.png)\n\nCamera path of %s: raw (estimated) and "
+                             "smoothed, as in the paper's \"Compensation Results\" figure.",
+                             r.clip.label.c_str()));
+        }
+    for (ClipResult &r : results)
+        truth_results->push_back(std::move(r));
+}
+
+void sectionDrone(const Options &o, const std::vector<Method> &ms, std::vector<ClipResult> *truth_results)
+{
+    Fragment frag(o, "quality_drone");
+    const std::string path = o.data_dir + "/aerial_drone_nadir_steady_1920x1080.mp4";
+    Clip steady;
+    if (o.data_dir.empty() || !haveCommand("ffmpeg") || !decodeClip(path, o.quick ? 90 : 1000, &steady)) {
+        frag.text("Real drone clip with known shake: skipped: " + path +
+                  (haveCommand("ffmpeg") ? " is not present." : " needs ffmpeg to decode."));
+        return;
+    }
+    const Clip clip = shakenDrone(steady, 11);
+    steady.frames.clear();
+    frag.text(format("Real drone clip with known shake: `aerial_drone_nadir_steady_1920x1080.mp4` (%zu frames, "
+                     "%.0f fps), each frame warped by a known similarity J_i = zoom 0.94 * shake_i (bicubic; the "
+                     "shake is ShakyFlight's jitter model at 3x its pixel amplitudes: 1.5 px white + 9 px RMS 2-8 Hz "
+                     "band, 0.05 + 0.3 deg rotation). Truth = J_i (shaky frame -> steady frame), so the residual "
+                     "jitter is measured against the original steady footage. Also the stability score and ITF "
+                     "(see the real-clip section).",
+                     clip.frames.size(), clip.fps()));
+    ClipResult r = evaluate(clip, ms, true);
+    std::vector<ClipResult> one;
+    one.push_back(std::move(r));
+    frag.table(truthTable(o, "drone", one, ms, true));
+    frag.text(boxVsGauss(one));
+    frag.table(crossCheckTable(one));
+    const std::string errors = errorsOf(one);
+    if (!errors.empty())
+        frag.text("Problems:\n\n" + errors);
+    trajectoryPlot(o, one.front(), "trajectory_drone.png");
+    frag.text("![trajectory](trajectory_drone.png)\n\nCamera path of the shaken drone clip: raw (estimated) and "
+              "smoothed.");
+    for (ClipResult &x : one)
+        truth_results->push_back(std::move(x));
+}
+
+void sectionReal(const Options &o, const std::vector<Method> &ms)
+{
+    Fragment frag(o, "quality_real");
+    std::vector<std::string> files;
+    if (!o.data_dir.empty())
+        if (DIR *d = opendir(o.data_dir.c_str())) {
+            while (dirent *e = readdir(d)) {
+                const std::string n = e->d_name;
+                if (n.size() > 4 && (n.substr(n.size() - 4) == ".mp4" || n.substr(n.size() - 4) == ".avi"))
+                    files.push_back(n);
+            }
+            closedir(d);
+        }
+    std::sort(files.begin(), files.end());
+    if (files.empty() || !haveCommand("ffmpeg")) {
+        frag.text("Real clips: skipped: " +
+                  std::string(files.empty() ? "no clips in " + (o.data_dir.empty() ? "(no data dir)" : o.data_dir)
+                                            : "ffmpeg is needed to decode them") +
+                  ".");
+        return;
+    }
+    const int max_frames = o.quick ? 100 : 300;
+    if (o.quick && files.size() > 3)
+        files.resize(3);
+    frag.text(format(
+        "Real clips from ../shared/data (first %d frames at most). **Stability score** (Liu et al. 2013): the "
+        "output's inter-frame similarity motion (ORB + RANSAC between consecutive output frames) is accumulated "
+        "into a path; FFT of its translation magnitude and of its rotation angle; share of the energy in bins 1-5 "
+        "among bins 1..N/2 (DC excluded); reported as translation / rotation, higher = steadier. **ITF** = mean "
+        "PSNR (dB) between consecutive output frames over the central 60 %% of the luma, higher = steadier. "
+        "Note: on the accumulated path the score is dominated by intentional pans (the inputs already score "
+        "about 0.9), so it separates methods weakly; **velocity t / r** (not from the paper) is the same ratio "
+        "computed on the inter-frame motion itself (translation magnitude, angle), where shake is not masked by "
+        "the pan. Coverage and zoom from registering each output frame to its input frame. The input's values "
+        "beside.",
+        max_frames));
+    Table t({"clip", "method", "stability t", "stability r", "ITF dB", "velocity t / r", "coverage mean",
+             "coverage min", "zoom mean", "failed registrations"});
+    std::vector<ClipResult> results;
+    for (const std::string &f : files) {
+        Clip c;
+        c.name = f.substr(0, f.size() - 4);
+        c.label = c.name;
+        if (!decodeClip(o.data_dir + "/" + f, max_frames, &c)) {
+            frag.text("Could not decode " + f + ": skipped.");
+            continue;
+        }
+        c.label = format("%s (%dx%d, %zu fr)", c.name.c_str(), c.width, c.height, c.frames.size());
+        results.push_back(evaluate(std::move(c), ms, true));
+        const ClipResult &r = results.back();
+        for (std::size_t i = 0; i < r.methods.size(); ++i) {
+            const Metrics &m = r.metrics[i];
+            t.row({r.clip.name, r.methods[i].label, num(m.stability_t, "%.3f"), num(m.stability_r, "%.3f"),
+                   num(m.itf, "%.2f"), num(m.velocity_t, "%.3f") + " / " + num(m.velocity_r, "%.3f"),
+                   num(m.coverage_mean, "%.4f"), num(m.coverage_min, "%.4f"),
+                   num(m.zoom_mean, "%.3f"), std::to_string(m.failed_out2in + m.failed_inter)});
+        }
+    }
+    Table agg({"method", "stability t (mean)", "stability r (mean)", "ITF dB (mean)", "ITF gain over input dB",
+               "velocity t / r (mean)", "coverage mean", "coverage min"});
+    const double in_itf = mean(collect(results, "input", &Metrics::itf));
+    for (const Method &m : ms) {
+        const double st = mean(collect(results, m.key, &Metrics::stability_t));
+        const double sr = mean(collect(results, m.key, &Metrics::stability_r));
+        const double itf = mean(collect(results, m.key, &Metrics::itf));
+        agg.row({m.label, num(st, "%.3f"), num(sr, "%.3f"), num(itf, "%.2f"), num(itf - in_itf, "%+.2f"),
+                 num(mean(collect(results, m.key, &Metrics::velocity_t)), "%.3f") + " / " +
+                     num(mean(collect(results, m.key, &Metrics::velocity_r)), "%.3f"),
+                 num(mean(collect(results, m.key, &Metrics::coverage_mean)), "%.4f"),
+                 num(minOf(collect(results, m.key, &Metrics::coverage_min)), "%.4f")});
+        putResult(o, "quality.real." + m.key + ".stability_t", st);
+        putResult(o, "quality.real." + m.key + ".stability_r", sr);
+        putResult(o, "quality.real." + m.key + ".itf", itf);
+    }
+    frag.text(format("Mean over the %zu real clips:", results.size()));
+    frag.table(agg);
+    frag.text("Per clip:");
+    frag.table(t);
+    const std::string errors = errorsOf(results);
+    if (!errors.empty())
+        frag.text("Problems:\n\n" + errors);
+}
+
+} // namespace
+
+int main(int argc, char **argv)
+{
+    try {
+        const Options o = parseOptions(argc, argv);
+        const bool deshake = ffmpegHasFilter("deshake");
+        const bool vidstab = ffmpegHasFilter("vidstabdetect") && ffmpegHasFilter("vidstabtransform");
+        if (!deshake)
+            std::printf("ffmpeg deshake not available: the quality tables go without it\n");
+        if (!vidstab)
+            std::printf("ffmpeg vid.stab not available: the quality tables go without it\n");
+        const std::vector<Method> ms = methods(deshake, vidstab);
+        std::vector<ClipResult> truth_results;
+        if (o.wants("synthetic"))
+            sectionSynthetic(o, ms, &truth_results);
+        if (o.wants("drone"))
+            sectionDrone(o, ms, &truth_results);
+        if (!truth_results.empty())
+            jitterPlot(o, truth_results, ms);
+        if (o.wants("real"))
+            sectionReal(o, ms);
+    } catch (const std::exception &e) {
+        std::cerr << "uavstab-bench-quality: " << e.what() << "\n";
+        return 1;
+    }
+    return 0;
+}

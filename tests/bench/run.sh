@@ -1,0 +1,120 @@
+#!/usr/bin/env bash
+# The benchmark of uavstabilize: throughput, latency, memory and quality of the library and
+# the GStreamer element, beside ffmpeg's deshake and vid.stab on the same frames.
+#
+#   bash tests/bench/run.sh            # full run (~20-25 min on 2 cores); updates tests/bench/REPORT.md + PNGs
+#   bash tests/bench/run.sh --quick    # fewer runs/resolutions/clips (~3-5 min); report in the out dir only
+#
+# Options: --out DIR (default build-bench/bench-out), --no-wait (do not wait for a quiet
+# machine), --no-build (use the build dir as it is), --only PROGRAM (speed, element, memory,
+# quality; repeatable; the report is still assembled, from whatever the out dir holds).
+# Uses its own build dir, build-bench (UAVSTAB_BENCH_BUILD_DIR overrides). Real clips are
+# read from ../shared/data (relative to the repository) when present and skipped when not.
+# A benchmark, not a test: it reports numbers and never fails on them.
+set -euo pipefail
+repo=$(cd "$(dirname "$0")/../.." && pwd)
+cd "$repo"
+
+quick=()
+out=
+wait_quiet=1
+build=1
+only=()
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --quick) quick=(--quick) ;;
+    --out) out=$2; shift ;;
+    --no-wait) wait_quiet=0 ;;
+    --no-build) build=0 ;;
+    --only) only+=("$2"); shift ;;
+    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+    *) echo "run.sh: unknown option $1" >&2; exit 2 ;;
+  esac
+  shift
+done
+wants() { [[ ${#only[@]} -eq 0 ]] || [[ " ${only[*]} " == *" $1 "* ]]; }
+
+builddir=${UAVSTAB_BENCH_BUILD_DIR:-$repo/build-bench}
+if [[ $build -eq 1 ]]; then
+  bash .ci/install-deps.sh build bench
+  [[ -f $builddir/build.ninja ]] || meson setup "$builddir" >/dev/null
+  ninja -C "$builddir" -j 2 >/dev/null
+fi
+bin=$builddir/tests/bench
+[[ -x $bin/uavstab-bench-speed ]] || { echo "run.sh: benchmark not built (OpenCV features2d/calib3d missing?)" >&2; exit 1; }
+
+out=${out:-$builddir/bench-out}
+mkdir -p "$out"
+out=$(cd "$out" && pwd)
+if [[ ${#only[@]} -eq 0 ]]; then
+  rm -f "$out"/*.md "$out"/*.png "$out"/summary.tsv
+fi
+data=$(cd "$repo/.." && pwd)/shared/data
+[[ -d $data ]] || echo "real clips: $data not found; the real-clip sections will say they were skipped"
+
+# Other work on the machine distorts every number: wait (up to 10 min) until the CPUs are
+# mostly idle; each section reports the share other processes took while it ran.
+busy_share() {  # percent of all CPUs busy over 3 s
+  local a b
+  a=($(head -1 /proc/stat)); sleep 3; b=($(head -1 /proc/stat))
+  local busy=$(( (b[1]+b[2]+b[3]+b[6]+b[7]) - (a[1]+a[2]+a[3]+a[6]+a[7]) ))
+  local total=$(( busy + (b[4]+b[5]) - (a[4]+a[5]) ))
+  echo $(( total > 0 ? 100 * busy / total : 0 ))
+}
+if [[ $wait_quiet -eq 1 ]]; then
+  for i in $(seq 1 200); do
+    b=$(busy_share)
+    [[ $b -le 20 ]] && break
+    [[ $i -eq 1 ]] && echo "waiting for a quiet machine (CPUs ${b}% busy; --no-wait to skip)..."
+  done
+fi
+start_busy=$(busy_share)
+
+commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
+subject=$(git log -1 --format=%s 2>/dev/null || echo "")
+dirty=$(git status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo " (with uncommitted changes)" || true)
+cpu=$(grep -m1 "model name" /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')
+opencv=$(dpkg-query -W -f='${Version}' libopencv-core406 2>/dev/null || echo unknown)
+{
+  echo "# uavstabilize benchmark report"
+  echo
+  echo "- Date: $(date -u '+%Y-%m-%d %H:%M UTC')"
+  echo "- Commit: \`$commit\` $subject$dirty"
+  echo "- Machine: $cpu, $(nproc) cores, $(free -g | awk '/Mem:/{print $2}') GiB RAM; $(. /etc/os-release && echo "$PRETTY_NAME"), kernel $(uname -r)"
+  echo "- Software: $(g++ --version | head -1); GStreamer $(gst-inspect-1.0 --version 2>/dev/null | sed -n 2p | awk '{print $2}'); OpenCV $opencv; $(ffmpeg -version 2>/dev/null | head -1 | awk '{print "ffmpeg", $3}')"
+  echo "- Command: \`bash tests/bench/run.sh${quick:+ --quick}\`$([[ ${#quick[@]} -gt 0 ]] && echo " (quick: fewer runs, resolutions and clips)")"
+  echo "- CPUs busy just before the run: ${start_busy} %; each section states the share other processes took while it ran."
+  echo "- Real clips: $( [[ -d $data ]] && echo "\`../shared/data\` ($(ls "$data" | grep -cE '\.(mp4|avi)$') clips)" || echo "not present (sections skipped)")"
+} >"$out/header.md"
+
+t0=$(date +%s)
+step() { echo; echo "== $1 ($(( $(date +%s) - t0 )) s)"; }
+if wants speed; then
+  step "library, per-stage, latency, peers"
+  "$bin/uavstab-bench-speed" --out "$out" "${quick[@]}"
+fi
+if wants element; then
+  step "element"
+  if [[ -x $bin/uavstab-bench-element ]]; then
+    "$bin/uavstab-bench-element" --out "$out" "${quick[@]}"
+  else
+    echo "Element: skipped: the plugin was not built (GStreamer or its app library missing)." | tee "$out/speed_element.md"
+    cp "$out/speed_element.md" "$out/latency_element.md"
+  fi
+fi
+if wants memory; then
+  step "memory"
+  "$bin/uavstab-bench-memory" --out "$out" "${quick[@]}"
+fi
+if wants quality; then
+  step "quality"
+  "$bin/uavstab-bench-quality" --out "$out" --data "$data" "${quick[@]}"
+fi
+step "report"
+echo "- Duration of the run: $(( ($(date +%s) - t0) / 60 )) min $(( ($(date +%s) - t0) % 60 )) s" >>"$out/header.md"
+"$bin/uavstab-bench-report" --out "$out" "${quick[@]}"
+if [[ ${#quick[@]} -eq 0 && ${#only[@]} -eq 0 ]]; then
+  cp "$out/REPORT.md" "$out"/*.png "$repo/tests/bench/"
+  echo "updated tests/bench/REPORT.md and its plots"
+fi
+echo "report: $out/REPORT.md"
