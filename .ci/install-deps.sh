@@ -10,7 +10,7 @@ build=(meson ninja-build pkg-config g++ libeigen3-dev
        gstreamer1.0-tools gstreamer1.0-plugins-base)
 test=(libgtest-dev gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-plugins-ugly
       libgstrtspserver-1.0-dev gstreamer1.0-rtsp)
-demo=(gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-plugins-ugly gstreamer1.0-libav)
+demo=(gstreamer1.0-plugins-base-apps gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-plugins-ugly gstreamer1.0-libav)
 bench=(ffmpeg libopencv-features2d-dev libopencv-calib3d-dev gstreamer1.0-libav time)
 
 groups=("$@")
