@@ -12,7 +12,7 @@
  * ahead; the LATENCY query reports delay × frame duration on top of upstream's latency.
  * With #GstUavStabilize:post-messages, an element message named `uavstabilize` is posted
  * per frame with the estimated motion, the camera path, the smoothed path and the applied
- * correction (angles in radians).
+ * correction (angles in radians); frame_statistics.hpp lists the fields.
  *
  * ## Example launch lines
  * |[
@@ -43,10 +43,13 @@
 
 #include <gst/video/video.h>
 
+#include "frame_statistics.hpp"
 #include "gst_frame_slot.hpp"
+#include "output_pool.hpp"
 #include "output_queue.hpp"
 #include "uavstab/stabilizer.hpp"
 #include "uavstabilize_enums.hpp"
+#include "uavstabilize_properties.hpp"
 #include "uavstabilize_settings.hpp"
 
 GST_DEBUG_CATEGORY(gst_uav_stabilize_debug);
@@ -86,27 +89,6 @@ constexpr guint kExtraInputBuffers = 4;
 constexpr GstClockTime kFallbackFrameDuration = GST_SECOND / 30;
 // Distinct warp/estimation errors reported as warnings; later ones only go to the log.
 constexpr std::size_t kMaxReportedErrors = 32;
-
-enum Property {
-    PROP_0,
-    PROP_DELAY,
-    PROP_SMOOTHING_RADIUS,
-    PROP_SMOOTHER,
-    PROP_MAX_CORNERS,
-    PROP_ROI,
-    PROP_REDETECT_INTERVAL,
-    PROP_FB_THRESHOLD,
-    PROP_MODEL,
-    PROP_DWELL,
-    PROP_MIN_POINTS,
-    PROP_CROP,
-    PROP_LIMIT_TO_CROP,
-    PROP_BORDER,
-    PROP_ANALYSIS_WIDTH,
-    PROP_THREADS,
-    PROP_BYPASS,
-    PROP_POST_MESSAGES,
-};
 
 struct BufferUnref {
     void operator()(GstBuffer *buffer) const { gst_buffer_unref(buffer); }
@@ -284,68 +266,10 @@ bool waitUntilDrained(UavStabilizeState &s)
     return !s.flushing && s.last_flow == GST_FLOW_OK;
 }
 
-bool configurePool(GstBufferPool *pool, GstCaps *caps, guint size, guint min, guint max, GstAllocator *allocator,
-                   const GstAllocationParams &params, bool video_meta)
-{
-    GstStructure *config = gst_buffer_pool_get_config(pool);
-    gst_buffer_pool_config_set_params(config, caps, size, min, max);
-    gst_buffer_pool_config_set_allocator(config, allocator, &params);
-    if (video_meta && gst_buffer_pool_has_option(pool, GST_BUFFER_POOL_OPTION_VIDEO_META))
-        gst_buffer_pool_config_add_option(config, GST_BUFFER_POOL_OPTION_VIDEO_META);
-    if (gst_buffer_pool_set_config(pool, config))
-        return true;
-    // The pool may have adjusted the config; take it if it still fits.
-    config = gst_buffer_pool_get_config(pool);
-    if (!gst_buffer_pool_config_validate_params(config, caps, size, min, max)) {
-        gst_structure_free(config);
-        return false;
-    }
-    return gst_buffer_pool_set_config(pool, config);
-}
-
-// Streaming thread, with the output queue drained and the new caps pushed: picks the
-// pool output buffers come from (downstream's if it offers one that takes our config,
-// else our own video pool).
+// Streaming thread, with the output queue drained and the new caps pushed.
 void negotiateOutputPool(GstUavStabilize *self, UavStabilizeState &s)
 {
-    GstQuery *query = gst_query_new_allocation(s.caps, TRUE);
-    if (!gst_pad_peer_query(self->srcpad, query))
-        GST_DEBUG_OBJECT(self, "downstream did not answer the ALLOCATION query");
-
-    GstBufferPool *pool = nullptr;
-    guint size = 0, min = 0, max = 0;
-    if (gst_query_get_n_allocation_pools(query) > 0)
-        gst_query_parse_nth_allocation_pool(query, 0, &pool, &size, &min, &max);
-    GstAllocator *allocator = nullptr;
-    GstAllocationParams params;
-    gst_allocation_params_init(&params);
-    if (gst_query_get_n_allocation_params(query) > 0)
-        gst_query_parse_nth_allocation_param(query, 0, &allocator, &params);
-    const bool video_meta = gst_query_find_allocation_meta(query, GST_VIDEO_META_API_TYPE, nullptr);
-    gst_query_unref(query);
-
-    const guint frame_size = guint(GST_VIDEO_INFO_SIZE(&s.info));
-    if (pool && !configurePool(pool, s.caps, std::max(size, frame_size), min, max, allocator, params, video_meta)) {
-        GST_DEBUG_OBJECT(self, "downstream's pool refused our config; using our own");
-        gst_object_unref(pool);
-        pool = nullptr;
-    }
-    if (!pool) {
-        pool = gst_video_buffer_pool_new();
-        if (!configurePool(pool, s.caps, frame_size, 0, 0, allocator, params, false)) {
-            gst_object_unref(pool);
-            pool = nullptr;
-        }
-    }
-    if (allocator)
-        gst_object_unref(allocator);
-    if (!pool || !gst_buffer_pool_set_active(pool, TRUE)) {
-        if (pool)
-            gst_object_unref(pool);
-        throw std::runtime_error("no usable output buffer pool");
-    }
-    GST_DEBUG_OBJECT(self, "output buffers from %" GST_PTR_FORMAT, pool);
-
+    GstBufferPool *pool = gstuavstab::negotiateOutputPool(self->srcpad, s.caps, s.info);
     GstBufferPool *old;
     {
         std::lock_guard<std::mutex> lock(s.mutex);
@@ -375,50 +299,10 @@ void releaseOutputPool(UavStabilizeState &s)
 // ---------------------------------------------------------------------------------
 // Src pad task: pushes the output queue in order
 
-void setSimilarity(GstStructure *structure, const char *prefix, const uavstab::Similarity &s)
-{
-    const std::string p(prefix);
-    gst_structure_set(structure, (p + "-dx").c_str(), G_TYPE_DOUBLE, s.dx, (p + "-dy").c_str(), G_TYPE_DOUBLE, s.dy,
-                      (p + "-angle").c_str(), G_TYPE_DOUBLE, s.angle, (p + "-scale").c_str(), G_TYPE_DOUBLE, s.scale,
-                      nullptr);
-}
-
-const char *outcomeName(uavstab::Outcome outcome)
-{
-    switch (outcome) {
-    case uavstab::Outcome::Warped:
-        return "warped";
-    case uavstab::Outcome::Bypassed:
-        return "bypassed";
-    case uavstab::Outcome::NoOutput:
-        return "no-output";
-    default:
-        return "failed";
-    }
-}
-
 void postStatistics(GstUavStabilize *self, const UavStabilizeState &s, const uavstab::StabilizedFrame &frame,
                     GstClockTime pts)
 {
-    const uavstab::FrameStats &stats = frame.stats;
-    GstStructure *structure = gst_structure_new(
-        "uavstabilize", "timestamp", G_TYPE_UINT64, guint64(pts), "index", G_TYPE_INT64, gint64(stats.index), "zoom",
-        G_TYPE_DOUBLE, stats.zoom, "correction-fraction", G_TYPE_DOUBLE, stats.correction_fraction, "model",
-        G_TYPE_STRING, uavstab::toString(stats.model), "points", G_TYPE_INT, stats.points, "inliers", G_TYPE_INT,
-        stats.inliers, "skipped", G_TYPE_BOOLEAN, gboolean(stats.skipped), "segment-start", G_TYPE_BOOLEAN,
-        gboolean(stats.segment_start), "outcome", G_TYPE_STRING, outcomeName(frame.outcome), nullptr);
-    if (GST_CLOCK_TIME_IS_VALID(pts) && s.output_segment.format == GST_FORMAT_TIME) {
-        const guint64 running_time = gst_segment_to_running_time(&s.output_segment, GST_FORMAT_TIME, pts);
-        const guint64 stream_time = gst_segment_to_stream_time(&s.output_segment, GST_FORMAT_TIME, pts);
-        if (GST_CLOCK_TIME_IS_VALID(running_time))
-            gst_structure_set(structure, "running-time", G_TYPE_UINT64, running_time, nullptr);
-        if (GST_CLOCK_TIME_IS_VALID(stream_time))
-            gst_structure_set(structure, "stream-time", G_TYPE_UINT64, stream_time, nullptr);
-    }
-    setSimilarity(structure, "motion", stats.motion);
-    setSimilarity(structure, "trajectory", stats.trajectory);
-    setSimilarity(structure, "smoothed", stats.smoothed);
-    setSimilarity(structure, "correction", stats.correction);
+    GstStructure *structure = gstuavstab::frameStatistics(frame, pts, s.output_segment);
     gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), structure));
 }
 
@@ -762,36 +646,6 @@ gboolean sinkEvent(GstPad *, GstObject *parent, GstEvent *event)
 // ---------------------------------------------------------------------------------
 // Queries
 
-// Upstream may allocate from a pool big enough for the frames we hold (sources with
-// fixed pools, like v4l2src, would starve otherwise) and with padded strides.
-bool proposeAllocation(GstUavStabilize *self, GstQuery *query)
-{
-    GstCaps *caps = nullptr;
-    gboolean need_pool = FALSE;
-    gst_query_parse_allocation(query, &caps, &need_pool);
-    GstVideoInfo info;
-    if (!caps || !gst_video_info_from_caps(&info, caps))
-        return false;
-    const guint min_buffers = currentDelay(self) + kExtraInputBuffers;
-    const guint size = guint(GST_VIDEO_INFO_SIZE(&info));
-    GstBufferPool *pool = nullptr;
-    if (need_pool) {
-        pool = gst_video_buffer_pool_new();
-        GstStructure *config = gst_buffer_pool_get_config(pool);
-        gst_buffer_pool_config_set_params(config, caps, size, min_buffers, 0);
-        gst_buffer_pool_config_add_option(config, GST_BUFFER_POOL_OPTION_VIDEO_META);
-        if (!gst_buffer_pool_set_config(pool, config)) {
-            gst_object_unref(pool);
-            return false;
-        }
-    }
-    gst_query_add_allocation_pool(query, pool, size, min_buffers, 0);
-    if (pool)
-        gst_object_unref(pool);
-    gst_query_add_allocation_meta(query, GST_VIDEO_META_API_TYPE, nullptr);
-    return true;
-}
-
 bool acceptCaps(GstUavStabilize *self, GstPad *pad, GstQuery *query)
 {
     GstCaps *caps = nullptr;
@@ -814,7 +668,8 @@ bool handleSinkQuery(GstUavStabilize *self, UavStabilizeState &s, GstPad *pad, G
     case GST_QUERY_ACCEPT_CAPS:
         return acceptCaps(self, pad, query);
     case GST_QUERY_ALLOCATION:
-        return proposeAllocation(self, query);
+        // Upstream's pool must cover the frames we hold.
+        return gstuavstab::proposeInputAllocation(query, currentDelay(self) + kExtraInputBuffers);
     case GST_QUERY_DRAIN:
         // Everything held goes out before the answer.
         if (s.stabilizer)
@@ -971,70 +826,13 @@ GstStateChangeReturn changeState(GstElement *element, GstStateChange transition)
 void setProperty(GObject *object, guint id, const GValue *value, GParamSpec *pspec)
 {
     auto *self = GST_UAV_STABILIZE(object);
-    bool delay_changed = false;
     GST_OBJECT_LOCK(self);
-    uavstab::StabilizerConfig &c = self->settings->stabilizer;
-    switch (Property(id)) {
-    case PROP_DELAY: {
-        const int delay = int(g_value_get_uint(value));
-        delay_changed = delay != c.delay;
-        c.delay = delay;
-        break;
-    }
-    case PROP_SMOOTHING_RADIUS:
-        c.smoothing_radius = int(g_value_get_uint(value));
-        break;
-    case PROP_SMOOTHER:
-        c.smoother = uavstab::SmootherKind(g_value_get_enum(value));
-        break;
-    case PROP_MAX_CORNERS:
-        c.max_corners = int(g_value_get_uint(value));
-        break;
-    case PROP_ROI:
-        c.roi = g_value_get_double(value);
-        break;
-    case PROP_REDETECT_INTERVAL:
-        c.redetect_interval = int(g_value_get_uint(value));
-        break;
-    case PROP_FB_THRESHOLD:
-        c.fb_threshold = g_value_get_double(value);
-        break;
-    case PROP_MODEL:
-        c.model = uavstab::ModelChoice(g_value_get_enum(value));
-        break;
-    case PROP_DWELL:
-        c.dwell = int(g_value_get_uint(value));
-        break;
-    case PROP_MIN_POINTS:
-        c.min_points = int(g_value_get_uint(value));
-        break;
-    case PROP_CROP:
-        c.crop = g_value_get_double(value);
-        break;
-    case PROP_LIMIT_TO_CROP:
-        c.limit_to_crop = g_value_get_boolean(value);
-        break;
-    case PROP_BORDER:
-        c.border = uavstab::BorderMode(g_value_get_enum(value));
-        break;
-    case PROP_ANALYSIS_WIDTH:
-        c.analysis_width = int(g_value_get_uint(value));
-        break;
-    case PROP_THREADS:
-        c.threads = int(g_value_get_uint(value));
-        break;
-    case PROP_BYPASS:
-        c.bypass = g_value_get_boolean(value);
-        break;
-    case PROP_POST_MESSAGES:
-        self->settings->post_messages = g_value_get_boolean(value);
-        break;
-    default:
-        G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
-        break;
-    }
-    self->settings->dirty = true;
+    const int old_delay = self->settings->stabilizer.delay;
+    const bool known = gstuavstab::setProperty(*self->settings, id, value);
+    const bool delay_changed = self->settings->stabilizer.delay != old_delay;
     GST_OBJECT_UNLOCK(self);
+    if (!known)
+        G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
     if (delay_changed)
         postLatencyChanged(self);
 }
@@ -1043,133 +841,10 @@ void getProperty(GObject *object, guint id, GValue *value, GParamSpec *pspec)
 {
     auto *self = GST_UAV_STABILIZE(object);
     GST_OBJECT_LOCK(self);
-    const uavstab::StabilizerConfig &c = self->settings->stabilizer;
-    switch (Property(id)) {
-    case PROP_DELAY:
-        g_value_set_uint(value, guint(c.delay));
-        break;
-    case PROP_SMOOTHING_RADIUS:
-        g_value_set_uint(value, guint(c.smoothing_radius));
-        break;
-    case PROP_SMOOTHER:
-        g_value_set_enum(value, int(c.smoother));
-        break;
-    case PROP_MAX_CORNERS:
-        g_value_set_uint(value, guint(c.max_corners));
-        break;
-    case PROP_ROI:
-        g_value_set_double(value, c.roi);
-        break;
-    case PROP_REDETECT_INTERVAL:
-        g_value_set_uint(value, guint(c.redetect_interval));
-        break;
-    case PROP_FB_THRESHOLD:
-        g_value_set_double(value, c.fb_threshold);
-        break;
-    case PROP_MODEL:
-        g_value_set_enum(value, int(c.model));
-        break;
-    case PROP_DWELL:
-        g_value_set_uint(value, guint(c.dwell));
-        break;
-    case PROP_MIN_POINTS:
-        g_value_set_uint(value, guint(c.min_points));
-        break;
-    case PROP_CROP:
-        g_value_set_double(value, c.crop);
-        break;
-    case PROP_LIMIT_TO_CROP:
-        g_value_set_boolean(value, c.limit_to_crop);
-        break;
-    case PROP_BORDER:
-        g_value_set_enum(value, int(c.border));
-        break;
-    case PROP_ANALYSIS_WIDTH:
-        g_value_set_uint(value, guint(c.analysis_width));
-        break;
-    case PROP_THREADS:
-        g_value_set_uint(value, guint(c.threads));
-        break;
-    case PROP_BYPASS:
-        g_value_set_boolean(value, c.bypass);
-        break;
-    case PROP_POST_MESSAGES:
-        g_value_set_boolean(value, self->settings->post_messages);
-        break;
-    default:
-        G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
-        break;
-    }
+    const bool known = gstuavstab::getProperty(*self->settings, id, value);
     GST_OBJECT_UNLOCK(self);
-}
-
-constexpr GParamFlags kPlaying =
-    GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
-constexpr GParamFlags kReady = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
-
-void installProperties(GObjectClass *gobject_class)
-{
-    const uavstab::StabilizerConfig d;  // the library's defaults are the element's
-    auto install = [gobject_class](Property id, GParamSpec *spec) {
-        g_object_class_install_property(gobject_class, id, spec);
-    };
-    install(PROP_DELAY, g_param_spec_uint("delay", "Delay",
-                                          "Frames held back so the smoothing window can look ahead (adds delay x "
-                                          "frame duration of latency; 0 = causal smoothing)",
-                                          0, 1000, guint(d.delay), kPlaying));
-    install(PROP_SMOOTHING_RADIUS,
-            g_param_spec_uint("smoothing-radius", "Smoothing radius",
-                              "Half-width of the camera path smoothing window, in frames", 0, 1000,
-                              guint(d.smoothing_radius), kPlaying));
-    install(PROP_SMOOTHER, g_param_spec_enum("smoother", "Smoother", "How the camera path is smoothed",
-                                             UAVSTABILIZE_TYPE_SMOOTHER, int(d.smoother), kPlaying));
-    install(PROP_MAX_CORNERS, g_param_spec_uint("max-corners", "Max corners", "Corners tracked per frame", 4, 200,
-                                                guint(d.max_corners), kPlaying));
-    install(PROP_ROI, g_param_spec_double("roi", "Region of interest",
-                                          "Central share of width and height where corners are detected", 0.1,
-                                          1.0, d.roi, kPlaying));
-    install(PROP_REDETECT_INTERVAL,
-            g_param_spec_uint("redetect-interval", "Redetect interval",
-                              "Frames between corner re-detections (sooner when tracks are lost)", 1, 1000,
-                              guint(d.redetect_interval), kPlaying));
-    install(PROP_FB_THRESHOLD,
-            g_param_spec_double("fb-threshold", "Forward-backward threshold",
-                                "A track is kept when tracking it back lands within this many analysis pixels",
-                                0.01, 100.0, d.fb_threshold, kPlaying));
-    install(PROP_MODEL, g_param_spec_enum("model", "Motion model", "Motion model fitted to the tracks",
-                                          UAVSTABILIZE_TYPE_MODEL, int(d.model), kPlaying));
-    install(PROP_DWELL, g_param_spec_uint("dwell", "Dwell",
-                                          "Frames a hybrid model choice is kept before it is re-evaluated", 1,
-                                          100000, guint(d.dwell), kPlaying));
-    install(PROP_MIN_POINTS,
-            g_param_spec_uint("min-points", "Min points",
-                              "Fewer surviving tracks than this: the frame gets no correction", 2, 200,
-                              guint(d.min_points), kPlaying));
-    install(PROP_CROP, g_param_spec_double("crop", "Crop",
-                                           "Share of width/height hidden by the zoom (split between opposite "
-                                           "edges; zoom = 1 / (1 - crop))",
-                                           0.0, 0.5, d.crop, kPlaying));
-    install(PROP_LIMIT_TO_CROP,
-            g_param_spec_boolean("limit-to-crop", "Limit to crop",
-                                 "Shrink corrections that would show more border than the crop hides",
-                                 d.limit_to_crop, kPlaying));
-    install(PROP_BORDER, g_param_spec_enum("border", "Border", "What uncovered output pixels show",
-                                           UAVSTABILIZE_TYPE_BORDER, int(d.border), kPlaying));
-    install(PROP_ANALYSIS_WIDTH,
-            g_param_spec_uint("analysis-width", "Analysis width",
-                              "Motion is estimated on luma downscaled to this width (full size when smaller)", 16,
-                              16384, guint(d.analysis_width), kPlaying));
-    install(PROP_THREADS, g_param_spec_uint("threads", "Threads", "Warp worker threads (0 = one per core)", 0, 64,
-                                            guint(d.threads), kReady));
-    install(PROP_BYPASS, g_param_spec_boolean("bypass", "Bypass",
-                                              "Pass frames through untouched, with the same delay (toggling "
-                                              "never reorders frames)",
-                                              d.bypass, kPlaying));
-    install(PROP_POST_MESSAGES,
-            g_param_spec_boolean("post-messages", "Post messages",
-                                 "Post an element message 'uavstabilize' per frame with the motion, path and "
-                                 "correction (angles in radians)",
-                                 FALSE, kPlaying));
+    if (!known)
+        G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
 }
 
 void finalize(GObject *object)
@@ -1191,7 +866,7 @@ static void gst_uav_stabilize_class_init(GstUavStabilizeClass *klass)
     gobject_class->set_property = setProperty;
     gobject_class->get_property = getProperty;
     gobject_class->finalize = finalize;
-    installProperties(gobject_class);
+    gstuavstab::installProperties(gobject_class);
 
     gst_element_class_add_static_pad_template(element_class, &sink_template);
     gst_element_class_add_static_pad_template(element_class, &src_template);

@@ -577,6 +577,74 @@ ELEMENT_TEST(downstream_errors_reach_upstream)
     gst_harness_teardown(h);
 }
 
+namespace {
+
+// A pool handing out buffers too small for any frame: the output cannot be mapped.
+GstFlowReturn allocTinyBuffer(GstBufferPool *, GstBuffer **buffer, GstBufferPoolAcquireParams *)
+{
+    *buffer = gst_buffer_new_allocate(nullptr, 16, nullptr);
+    return GST_FLOW_OK;
+}
+
+GType tinyPoolType()
+{
+    static const GType type = g_type_register_static_simple(
+        GST_TYPE_BUFFER_POOL, "UavStabilizeTestTinyPool", sizeof(GstBufferPoolClass),
+        [](gpointer klass, gpointer) { GST_BUFFER_POOL_CLASS(klass)->alloc_buffer = allocTinyBuffer; },
+        sizeof(GstBufferPool), nullptr, GTypeFlags(0));
+    return type;
+}
+
+gboolean proposeTinyPool(GstPad *pad, GstObject *parent, GstQuery *query)
+{
+    if (GST_QUERY_TYPE(query) != GST_QUERY_ALLOCATION)
+        return gst_pad_query_default(pad, parent, query);
+    auto *pool = GST_BUFFER_POOL(gst_object_ref_sink(g_object_new(tinyPoolType(), nullptr)));
+    gst_query_add_allocation_pool(query, pool, 16, 0, 0);
+    gst_object_unref(pool);
+    return TRUE;
+}
+
+} // namespace
+
+ELEMENT_TEST(failed_frames_pass_through_with_one_warning)
+{
+    GstHarness *h = makeHarness(makeStabilizer("threads=2 delay=2"));
+    gst_pad_set_query_function(h->sinkpad, proposeTinyPool);
+    GstBus *bus = gst_bus_new();
+    gst_element_set_bus(h->element, bus);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_harness_set_src_caps(h, caps);
+    gst_harness_set_drop_buffers(h, TRUE);
+    StreamLog log(h->sinkpad);
+    std::vector<GstBuffer *> inputs;
+    for (int i = 0; i < 8; ++i) {
+        inputs.push_back(makeFrame(info, i));
+        fail_unless_equals_int(gst_harness_push(h, gst_buffer_ref(inputs.back())), GST_FLOW_OK);
+    }
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+    // Never lose a frame: each goes out uncorrected, as it came.
+    const std::vector<LoggedItem> buffers = log.buffers();
+    fail_unless_equals_int(int(buffers.size()), 8);
+    for (int i = 0; i < 8; ++i)
+        fail_unless(buffers[i].identity == inputs[i], "frame %d is not its input", i);
+    // One warning for the one distinct error.
+    int warnings = 0;
+    while (GstMessage *message = gst_bus_pop_filtered(bus, GST_MESSAGE_WARNING)) {
+        ++warnings;
+        gst_message_unref(message);
+    }
+    fail_unless_equals_int(warnings, 1);
+    fail_unless(gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR) == nullptr);
+    for (GstBuffer *buffer : inputs)
+        gst_buffer_unref(buffer);
+    gst_element_set_bus(h->element, nullptr);
+    gst_object_unref(bus);
+    gst_harness_teardown(h);
+}
+
 GST_START_TEST(warm_up)
 {
     GstHarness *h = smallHarness("delay=1");
@@ -615,6 +683,7 @@ Suite *flowSuite()
     tcase_add_test(tc, safe_metas_are_copied_to_warped_frames);
     tcase_add_test(tc, slow_downstream_bounds_what_is_held);
     tcase_add_test(tc, downstream_errors_reach_upstream);
+    tcase_add_test(tc, failed_frames_pass_through_with_one_warning);
     return s;
 }
 

@@ -1,0 +1,57 @@
+#include "frame_statistics.hpp"
+
+#include <string>
+
+namespace gstuavstab {
+
+namespace {
+
+void setSimilarity(GstStructure *structure, const char *prefix, const uavstab::Similarity &s)
+{
+    const std::string p(prefix);
+    gst_structure_set(structure, (p + "-dx").c_str(), G_TYPE_DOUBLE, s.dx, (p + "-dy").c_str(), G_TYPE_DOUBLE, s.dy,
+                      (p + "-angle").c_str(), G_TYPE_DOUBLE, s.angle, (p + "-scale").c_str(), G_TYPE_DOUBLE, s.scale,
+                      nullptr);
+}
+
+const char *outcomeName(uavstab::Outcome outcome)
+{
+    switch (outcome) {
+    case uavstab::Outcome::Warped:
+        return "warped";
+    case uavstab::Outcome::Bypassed:
+        return "bypassed";
+    case uavstab::Outcome::NoOutput:
+        return "no-output";
+    default:
+        return "failed";
+    }
+}
+
+} // namespace
+
+GstStructure *frameStatistics(const uavstab::StabilizedFrame &frame, GstClockTime pts, const GstSegment &segment)
+{
+    const uavstab::FrameStats &stats = frame.stats;
+    GstStructure *structure = gst_structure_new(
+        "uavstabilize", "timestamp", G_TYPE_UINT64, guint64(pts), "index", G_TYPE_INT64, gint64(stats.index), "zoom",
+        G_TYPE_DOUBLE, stats.zoom, "correction-fraction", G_TYPE_DOUBLE, stats.correction_fraction, "model",
+        G_TYPE_STRING, uavstab::toString(stats.model), "points", G_TYPE_INT, stats.points, "inliers", G_TYPE_INT,
+        stats.inliers, "skipped", G_TYPE_BOOLEAN, gboolean(stats.skipped), "segment-start", G_TYPE_BOOLEAN,
+        gboolean(stats.segment_start), "outcome", G_TYPE_STRING, outcomeName(frame.outcome), nullptr);
+    if (GST_CLOCK_TIME_IS_VALID(pts) && segment.format == GST_FORMAT_TIME) {
+        const guint64 running_time = gst_segment_to_running_time(&segment, GST_FORMAT_TIME, pts);
+        const guint64 stream_time = gst_segment_to_stream_time(&segment, GST_FORMAT_TIME, pts);
+        if (GST_CLOCK_TIME_IS_VALID(running_time))
+            gst_structure_set(structure, "running-time", G_TYPE_UINT64, running_time, nullptr);
+        if (GST_CLOCK_TIME_IS_VALID(stream_time))
+            gst_structure_set(structure, "stream-time", G_TYPE_UINT64, stream_time, nullptr);
+    }
+    setSimilarity(structure, "motion", stats.motion);
+    setSimilarity(structure, "trajectory", stats.trajectory);
+    setSimilarity(structure, "smoothed", stats.smoothed);
+    setSimilarity(structure, "correction", stats.correction);
+    return structure;
+}
+
+} // namespace gstuavstab
