@@ -433,6 +433,16 @@ void startTask(GstUavStabilize *self)
     gst_pad_start_task(self->srcpad, srcLoop, self, nullptr);
 }
 
+// A C++ exception at a pad boundary: a frame or event may be missing from the ordered
+// output, so the stream stops the way a downstream error stops it.
+void failStream(GstUavStabilize *self, UavStabilizeState &s, const char *what, const std::exception &e)
+{
+    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s", what), ("%s", e.what()));
+    std::lock_guard<std::mutex> lock(s.mutex);
+    s.last_flow = GST_FLOW_ERROR;
+    s.changed.notify_all();
+}
+
 // ---------------------------------------------------------------------------------
 // Sink pad: data
 
@@ -489,7 +499,7 @@ GstFlowReturn sinkChain(GstPad *, GstObject *parent, GstBuffer *buffer)
     try {
         return chainFrame(self, stateOf(self), BufferPtr(buffer));
     } catch (const std::exception &e) {
-        GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Stabilizing a frame failed"), ("%s", e.what()));
+        failStream(self, stateOf(self), "Stabilizing a frame failed", e);
         return GST_FLOW_ERROR;
     }
 }
@@ -638,7 +648,7 @@ gboolean sinkEvent(GstPad *, GstObject *parent, GstEvent *event)
     try {
         return handleSinkEvent(self, stateOf(self), std::move(owned));
     } catch (const std::exception &e) {
-        GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Handling an event failed"), ("%s", e.what()));
+        failStream(self, stateOf(self), "Handling an event failed", e);
         return FALSE;
     }
 }
@@ -689,7 +699,7 @@ gboolean sinkQuery(GstPad *pad, GstObject *parent, GstQuery *query)
     try {
         return handleSinkQuery(self, stateOf(self), pad, query);
     } catch (const std::exception &e) {
-        GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Handling a query failed"), ("%s", e.what()));
+        failStream(self, stateOf(self), "Handling a query failed", e);
         return FALSE;
     }
 }
