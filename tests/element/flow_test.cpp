@@ -645,6 +645,79 @@ ELEMENT_TEST(failed_frames_pass_through_with_one_warning)
     gst_harness_teardown(h);
 }
 
+namespace {
+
+// Downstream offers a pool of at most three buffers.
+gboolean proposeSmallPool(GstPad *pad, GstObject *parent, GstQuery *query)
+{
+    if (GST_QUERY_TYPE(query) != GST_QUERY_ALLOCATION)
+        return gst_pad_query_default(pad, parent, query);
+    GstCaps *caps = nullptr;
+    gst_query_parse_allocation(query, &caps, nullptr);
+    GstVideoInfo info;
+    fail_unless(gst_video_info_from_caps(&info, caps));
+    GstBufferPool *pool = gst_video_buffer_pool_new();
+    gst_query_add_allocation_pool(query, pool, guint(GST_VIDEO_INFO_SIZE(&info)), 2, 3);
+    gst_object_unref(pool);
+    return TRUE;
+}
+
+} // namespace
+
+ELEMENT_TEST(small_downstream_pool_neither_starves_nor_deadlocks)
+{
+    GstHarness *h = makeHarness(makeStabilizer("threads=2 delay=10"));
+    gst_pad_set_query_function(h->sinkpad, proposeSmallPool);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_harness_set_src_caps(h, caps);
+    gst_harness_set_drop_buffers(h, TRUE);  // buffers go back to the pool at once
+    StreamLog log(h->sinkpad);
+    for (int i = 0; i < 40; ++i)
+        fail_unless_equals_int(gst_harness_push(h, makeFrame(info, i)), GST_FLOW_OK);
+    // EOS finalizes ten frames at once: more than the pool holds.
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+    const std::vector<LoggedItem> buffers = log.buffers();
+    fail_unless_equals_int(int(buffers.size()), 40);
+    for (int i = 0; i < 40; ++i)
+        fail_unless_equals_uint64(buffers[i].offset, guint64(i));
+    gst_harness_teardown(h);
+}
+
+ELEMENT_TEST(flush_unblocks_a_chain_waiting_for_output_buffers)
+{
+    GstHarness *h = makeHarness(makeStabilizer("threads=2 delay=2"));
+    gst_pad_set_query_function(h->sinkpad, proposeSmallPool);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_harness_set_src_caps(h, caps);
+    // The harness keeps what it receives: after three frames the pool is empty and the
+    // chain waits in the pool for a buffer that never comes back.
+    std::atomic<GstFlowReturn> last{GST_FLOW_OK};
+    std::atomic<int> pushed{0};
+    std::vector<GstBuffer *> frames;
+    for (int i = 0; i < 20; ++i)
+        frames.push_back(makeFrame(info, i));
+    std::thread streaming([&] {
+        for (GstBuffer *frame : frames) {
+            last = gst_harness_push(h, frame);
+            if (last != GST_FLOW_OK)
+                break;
+            ++pushed;
+        }
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    fail_unless(pushed < 20, "the chain never blocked (%d frames pushed)", pushed.load());
+    fail_unless(gst_harness_push_event(h, gst_event_new_flush_start()));
+    streaming.join();
+    fail_unless_equals_int(last.load(), GST_FLOW_FLUSHING);
+    for (std::size_t i = std::size_t(pushed) + 1; i < frames.size(); ++i)
+        gst_buffer_unref(frames[i]);  // never pushed
+    fail_unless(gst_harness_push_event(h, gst_event_new_flush_stop(TRUE)));
+    gst_harness_teardown(h);
+}
+
 GST_START_TEST(warm_up)
 {
     GstHarness *h = smallHarness("delay=1");
@@ -684,6 +757,8 @@ Suite *flowSuite()
     tcase_add_test(tc, slow_downstream_bounds_what_is_held);
     tcase_add_test(tc, downstream_errors_reach_upstream);
     tcase_add_test(tc, failed_frames_pass_through_with_one_warning);
+    tcase_add_test(tc, small_downstream_pool_neither_starves_nor_deadlocks);
+    tcase_add_test(tc, flush_unblocks_a_chain_waiting_for_output_buffers);
     return s;
 }
 
