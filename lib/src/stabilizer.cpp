@@ -213,6 +213,7 @@ void Stabilizer::startWarp(const std::shared_ptr<Pending> &pending, std::vector<
         stats.correction = framing.applied;
         stats.zoom = framing.zoom;
         stats.correction_fraction = framing.fraction;
+        stats.output_to_input = framing.output_to_input;
         pending->output_to_input = framing.output_to_input;
     } catch (const std::exception &e) {
         pending->outcome = Outcome::Failed;

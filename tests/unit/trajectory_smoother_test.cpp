@@ -24,6 +24,11 @@ std::pair<double, double> stabilizeFlight(const synthetic::FlightOptions &option
         EXPECT_EQ(id, int(output_path.size()));
         input_path.push_back(flight.truePose(id));
         output_path.push_back(flight.truePose(id) * synthetic::outputToInput(f.stats));
+        // The mapping the warper used is the correction undone, zoomed.
+        const Similarity rebuilt = synthetic::outputToInput(f.stats), used = f.stats.output_to_input;
+        EXPECT_NEAR(rebuilt.dx, used.dx, 1e-9);
+        EXPECT_NEAR(rebuilt.angle, used.angle, 1e-12);
+        EXPECT_NEAR(rebuilt.scale, used.scale, 1e-12);
         if (all_stats)
             all_stats->push_back(f.stats);
     };

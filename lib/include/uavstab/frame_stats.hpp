@@ -15,6 +15,9 @@ struct FrameStats {
     Similarity smoothed;      // smoothed camera pose (the path the output follows)
     Similarity correction;    // applied to the frame: input -> stabilized (before zoom)
     double zoom = 1.0;        // crop zoom of the output
+    // What the warper drew: output pixel -> input pixel, centred coordinates
+    // (correction^-1 * zoom^-1), so consumers need not rebuild it.
+    Similarity output_to_input;
     double correction_fraction = 1.0;  // < 1 when the correction was limited to the crop
     MotionModel model = MotionModel::Rigid;
     int points = 0;           // tracks that survived the forward-backward check

@@ -68,7 +68,9 @@ public:
 
     // Estimates the frame's motion and queues it. A frame of another format or size than
     // the previous one first flushes the held frames and starts a new path.
-    // Throws std::invalid_argument for a null slot or an invalid frame view.
+    // Throws std::invalid_argument for a null slot or an invalid frame view, before the
+    // frame is queued (the slot is then destroyed, nothing else changes). Once queued, a
+    // frame always comes back: estimation failures give it identity motion instead.
     void push(std::unique_ptr<FrameSlot> slot);
     // The next pushed frame starts a new path (scene cut, gap, discontinuity): no motion
     // is estimated across it and no smoothing window spans it.
