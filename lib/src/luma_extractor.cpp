@@ -14,6 +14,26 @@ cv::Mat planeMat(const FrameView &frame, int plane)
                    frame.planes[plane].data, std::size_t(frame.planes[plane].stride));
 }
 
+void LumaExtractor::downscale(const cv::Mat &src, cv::Mat &dst, cv::Size size)
+{
+    // OpenCV's area resampling is fast for an exact halving and slow for other factors
+    // (1080p -> 640: 0.84 ms, against 0.06 ms for 1920 -> 960). So halve while the
+    // result stays at least the target size, then bilinear for the last factor (< 2,
+    // where bilinear still reads every source pixel).
+    const cv::Mat *level = &src;
+    std::size_t k = 0;
+    while (level->cols / 2 >= size.width && level->rows / 2 >= size.height) {
+        if (halvings_.size() <= k)
+            halvings_.emplace_back();
+        cv::resize(*level, halvings_[k], cv::Size(level->cols / 2, level->rows / 2), 0, 0, cv::INTER_AREA);
+        level = &halvings_[k++];
+    }
+    if (level->size() == size)
+        level->copyTo(dst);
+    else
+        cv::resize(*level, dst, size, 0, 0, cv::INTER_LINEAR);
+}
+
 cv::Size LumaExtractor::analysisSize(int width, int height, int analysis_width)
 {
     const int w = std::min(width, std::max(analysis_width, 1));
@@ -34,7 +54,7 @@ const cv::Mat &LumaExtractor::extract(const FrameView &frame, int analysis_width
             view_ = packed;  // the Y plane itself; the caller copies what it keeps
             return view_;
         }
-        cv::resize(packed, luma_, size, 0, 0, cv::INTER_AREA);
+        downscale(packed, luma_, size);
         return luma_;
     }
 
@@ -45,7 +65,7 @@ const cv::Mat &LumaExtractor::extract(const FrameView &frame, int analysis_width
     const int code = channels == 3 ? (bgr ? cv::COLOR_BGR2GRAY : cv::COLOR_RGB2GRAY)
                                    : (bgr ? cv::COLOR_BGRA2GRAY : cv::COLOR_RGBA2GRAY);
     if (resample) {
-        cv::resize(packed, packed_small_, size, 0, 0, cv::INTER_AREA);
+        downscale(packed, packed_small_, size);
         cv::cvtColor(packed_small_, luma_, code);
     } else {
         cv::cvtColor(packed, luma_, code);

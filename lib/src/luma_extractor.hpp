@@ -2,6 +2,8 @@
 // (YUV/gray) or converted once from packed RGB, downscaled without copying the frame.
 #pragma once
 
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "uavstab/frame_view.hpp"
@@ -19,6 +21,9 @@ public:
     const cv::Mat &extract(const FrameView &frame, int analysis_width);
 
 private:
+    void downscale(const cv::Mat &src, cv::Mat &dst, cv::Size size);
+
+    std::vector<cv::Mat> halvings_;  // intermediate halved images, reused
     cv::Mat view_;          // wraps the caller's Y plane (never written)
     cv::Mat luma_;          // owned analysis image, reused from frame to frame
     cv::Mat packed_small_;
