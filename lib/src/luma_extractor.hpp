@@ -2,7 +2,7 @@
 // (YUV/gray) or converted once from packed RGB, downscaled without copying the frame.
 #pragma once
 
-#include <vector>
+#include <deque>
 
 #include <opencv2/core.hpp>
 
@@ -23,7 +23,7 @@ public:
 private:
     void downscale(const cv::Mat &src, cv::Mat &dst, cv::Size size);
 
-    std::vector<cv::Mat> halvings_;  // intermediate halved images, reused
+    std::deque<cv::Mat> halvings_;  // intermediate halved images, reused (stable addresses)
     cv::Mat view_;          // wraps the caller's Y plane (never written)
     cv::Mat luma_;          // owned analysis image, reused from frame to frame
     cv::Mat packed_small_;

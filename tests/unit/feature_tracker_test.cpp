@@ -127,3 +127,25 @@ TEST(FeatureTracker, UniformAndNoiseFramesGiveNoMatches)
     for (int i = 0; i < 3; ++i)
         EXPECT_TRUE(tracker.track(black.view()).current.empty());
 }
+
+TEST(FeatureTracker, VeryLargeFramesAreAnalysedAtTheAnalysisWidth)
+{
+    // 4K and 8K halve repeatedly down to the analysis width; a shifted texture is found.
+    for (auto [w, h] : {std::pair{3840, 2160}, {7680, 4320}}) {
+        FrameBuffer a(PixelFormat::Gray8, w, h), b(PixelFormat::Gray8, w, h);
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                auto texture = [](int u, int v) {
+                    return std::uint8_t(128 + 60 * std::sin(u * 0.011) * std::cos(v * 0.013) + 40 * std::sin((u + 2 * v) * 0.0041));
+                };
+                a.row(0, y)[x] = texture(x, y);
+                b.row(0, y)[x] = texture(x + 24, y - 12);  // the camera moved right 24, up 12
+            }
+        MotionEstimator estimator{StabilizerConfig{}};
+        estimator.estimate(a.view());
+        const MotionEstimate e = estimator.estimate(b.view());
+        ASSERT_FALSE(e.skipped) << w << "x" << h;
+        EXPECT_NEAR(e.motion.dx, 24.0, 0.3 * w / 640) << w << "x" << h;
+        EXPECT_NEAR(e.motion.dy, -12.0, 0.3 * w / 640) << w << "x" << h;
+    }
+}
