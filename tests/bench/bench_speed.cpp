@@ -253,9 +253,15 @@ void sectionLatency(const Options &o, const std::vector<ResolutionPlan> &plans,
                                                        pool, k));
             ++pushed_count;
         }
-        // Give the last warps time to land, then flush.
-        std::this_thread::sleep_for(std::chrono::milliseconds(200));
-        drain();
+        // Collect the warps still in flight as they land (up to 1 s), then flush.
+        const auto until = Clock::now() + std::chrono::seconds(1);
+        while (stabilizer.finalizedCount() > 0 && Clock::now() < until) {
+            std::unique_lock<std::mutex> lock(m);
+            cv.wait_until(lock, until, [&] { return ready; });
+            ready = false;
+            lock.unlock();
+            drain();
+        }
         stabilizer.flush();
         while (auto f = stabilizer.waitPop()) {
         }

@@ -9,7 +9,7 @@
 namespace bench {
 
 namespace {
-constexpr int kMaxWidth = 960;
+constexpr int kMaxWidth = 1280;
 constexpr double kRatio = 0.8;
 constexpr double kRansacPx = 1.5;  // in full-resolution pixels
 } // namespace

@@ -13,7 +13,7 @@
 
 namespace bench {
 
-// ORB features of one frame (luma), detected on a grey image shrunk to at most 960
+// ORB features of one frame (luma), detected on a grey image shrunk to at most 1280
 // pixels wide, positions refined with cornerSubPix; coordinates are given back in
 // full-resolution pixels.
 struct Features {
