@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages the project needs, only those missing.
-#   .ci/install-deps.sh [build] [test] [demo] [bench]   (default: build test)
+#   .ci/install-deps.sh [build] [test] [demo] [fuzz] [bench]   (default: build test)
 # Runs apt-get as root (directly, or through sudo when available).
 set -euo pipefail
 
@@ -11,6 +11,7 @@ build=(meson ninja-build pkg-config g++ libeigen3-dev
 test=(libgtest-dev gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-plugins-ugly
       libgstrtspserver-1.0-dev gstreamer1.0-rtsp)
 demo=(gstreamer1.0-plugins-base-apps gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-plugins-ugly gstreamer1.0-libav)
+fuzz=(clang libclang-rt-14-dev)
 bench=(ffmpeg libopencv-features2d-dev libopencv-calib3d-dev gstreamer1.0-libav time)
 
 groups=("$@")
@@ -21,6 +22,7 @@ for g in "${groups[@]}"; do
     build) ;;
     test) wanted+=("${test[@]}") ;;
     demo) wanted+=("${demo[@]}") ;;
+    fuzz) wanted+=("${fuzz[@]}") ;;
     bench) wanted+=("${bench[@]}") ;;
     *) echo "install-deps: unknown group $g" >&2; exit 2 ;;
   esac

@@ -82,12 +82,23 @@ std::string stopLeakTracking()
     std::map<std::string, int> alive;
     std::string leaks;
     for (int attempt = 0; attempt < 100; ++attempt) {
-        GstStructure *checkpoint = nullptr;
-        g_signal_emit_by_name(tracer, "activity-get-checkpoint", &checkpoint);
-        if (checkpoint) {
-            countEntries(checkpoint, "objects-created-list", +1, alive);
-            countEntries(checkpoint, "objects-removed-list", -1, alive);
-            gst_structure_free(checkpoint);
+        // Let the object population settle first: mayBeLeaked() reads each survivor's
+        // flags, and a survivor that another thread is still finalizing must not be
+        // touched (ASan saw exactly that). Settled = a whole poll without removals.
+        for (int settle = 0; settle < 50; ++settle) {
+            GstStructure *checkpoint = nullptr;
+            g_signal_emit_by_name(tracer, "activity-get-checkpoint", &checkpoint);
+            bool removed = false;
+            if (checkpoint) {
+                const GValue *list = gst_structure_get_value(checkpoint, "objects-removed-list");
+                removed = list && gst_value_list_get_size(list) > 0;
+                countEntries(checkpoint, "objects-created-list", +1, alive);
+                countEntries(checkpoint, "objects-removed-list", -1, alive);
+                gst_structure_free(checkpoint);
+            }
+            if (!removed && settle > 0)
+                break;
+            g_usleep(20 * 1000);
         }
         leaks.clear();
         for (const auto &[key, count] : alive) {
