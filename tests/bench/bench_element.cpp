@@ -30,8 +30,8 @@ double elementRun(const GstFrames &frames, long pushes, int threads, std::string
         return std::nan("");
     }
     if (run.passedThrough() > 0) {
-        *error = format("%ld of %ld frames came out unwarped (input buffer passed through)", run.passedThrough(),
-                        pushes);
+        *error =
+            format("%ld of %ld frames came out unwarped (input buffer passed through)", run.passedThrough(), pushes);
         return std::nan("");
     }
     return double(pushes) / s;
@@ -54,13 +54,16 @@ void sectionThroughput(const Options &o, const std::vector<ResolutionPlan> &plan
             const GstFrames frames(framesFromBgr(bgr[p.res.name()], fmt), 30);
             for (int threads : {1, 2}) {
                 std::string error;
-                elementRun(frames, std::min<long>(p.pushes / 2, 60), threads, &error);  // warm-up
                 std::vector<double> fps;
-                for (int r = 0; r < runs && error.empty(); ++r) {
-                    const double v = elementRun(frames, p.pushes, threads, &error);
-                    if (error.empty())
-                        fps.push_back(v);
-                }
+                measureQuietly("element " + p.res.name(), [&] {
+                    fps.clear();
+                    elementRun(frames, std::min<long>(p.pushes / 2, 60), threads, &error);  // warm-up
+                    for (int r = 0; r < runs && error.empty(); ++r) {
+                        const double v = elementRun(frames, p.pushes, threads, &error);
+                        if (error.empty())
+                            fps.push_back(v);
+                    }
+                });
                 if (!error.empty()) {
                     frag.text(format("**Element run failed** at %s %s threads=%d: %s", p.res.name().c_str(),
                                      formatName(fmt), threads, error.c_str()));
@@ -69,8 +72,7 @@ void sectionThroughput(const Options &o, const std::vector<ResolutionPlan> &plan
                 const double med = median(fps);
                 t.row({p.res.name(), formatName(fmt), std::to_string(threads), std::to_string(p.pushes),
                        spread(fps, "%.0f"), format("%.2f", 1000.0 / med)});
-                const std::string key =
-                    format("element.fps.%s.%s.t%d", p.res.name().c_str(), formatName(fmt), threads);
+                const std::string key = format("element.fps.%s.%s.t%d", p.res.name().c_str(), formatName(fmt), threads);
                 putResult(o, key, med);
                 putResult(o, key + ".min", minOf(fps));
                 putResult(o, key + ".max", maxOf(fps));
@@ -99,29 +101,37 @@ void sectionLatency(const Options &o, const std::vector<ResolutionPlan> &plans,
              "max ms", "p99 <= 1 frame"});
     for (const ResolutionPlan &p : plans) {
         const GstFrames frames(framesFromBgr(bgr[p.res.name()], PixelFormat::I420), fps);
-        ElementRun run(frames, "");
-        run.start();
-        const auto start = Clock::now();
-        gint64 query = -1;
-        for (long k = 0; k < n; ++k) {
-            std::this_thread::sleep_until(start + std::chrono::microseconds(long(1e6 * k / fps)));
-            run.push(k);
-            if (k == 40)
-                query = run.queryLatency();
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(200));
-        if (!run.finish()) {
-            frag.text(format("**Element latency run failed** at %s: %s", p.res.name().c_str(), run.error().c_str()));
-            continue;
-        }
         const int delay = 20;
         std::vector<double> latency, delays;
-        const auto &pushed = run.pushTimes();
-        for (const auto &a : run.arrivals()) {
-            if (a.index < 0 || a.index + delay >= n)
-                continue;  // drained at EOS
-            delays.push_back(double(a.pushed - 1 - a.index));
-            latency.push_back(msBetween(pushed[std::size_t(a.index + delay)], a.time));
+        gint64 query = -1;
+        std::string error;
+        measureQuietly("element latency " + p.res.name(), [&] {
+            latency.clear();
+            delays.clear();
+            ElementRun run(frames, "");
+            run.start();
+            const auto start = Clock::now();
+            for (long k = 0; k < n; ++k) {
+                std::this_thread::sleep_until(start + std::chrono::microseconds(long(1e6 * k / fps)));
+                run.push(k);
+                if (k == 40)
+                    query = run.queryLatency();
+            }
+            if (!run.finish()) {
+                error = run.error();
+                return;
+            }
+            const auto &pushed = run.pushTimes();
+            for (const auto &a : run.arrivals()) {
+                if (a.index < 0 || a.index + delay >= n)
+                    continue;  // drained at EOS
+                delays.push_back(double(a.pushed - 1 - a.index));
+                latency.push_back(msBetween(pushed[std::size_t(a.index + delay)], a.time));
+            }
+        });
+        if (!error.empty()) {
+            frag.text(format("**Element latency run failed** at %s: %s", p.res.name().c_str(), error.c_str()));
+            continue;
         }
         const double d = median(delays);
         const double p50 = median(latency), p99 = percentile(latency, 99), mx = maxOf(latency);

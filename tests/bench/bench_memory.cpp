@@ -61,8 +61,8 @@ int childLibrary(int width, int height, long frames, const std::vector<long> &ch
     stabilizer.flush();
     while (auto f = stabilizer.waitPop()) {
     }
-    std::printf("base=%ld\npeak=%ld\nheap_base=%ld\nheap_peak=%ld\nframe_bytes=%zu\n", base, peakRssKiB(),
-                heap_base, heap_peak, std::size_t(width) * height * 3 / 2);
+    std::printf("base=%ld\npeak=%ld\nheap_base=%ld\nheap_peak=%ld\nframe_bytes=%zu\n", base, peakRssKiB(), heap_base,
+                heap_peak, std::size_t(width) * height * 3 / 2);
     return 0;
 }
 
@@ -93,8 +93,8 @@ int childElement(int width, int height, long frames, const std::vector<long> &ch
         std::fprintf(stderr, "element run failed: %s\n", run.error().c_str());
         return 1;
     }
-    std::printf("base=%ld\npeak=%ld\nheap_base=%ld\nheap_peak=%ld\nframe_bytes=%zu\nreceived=%ld\n", base,
-                peakRssKiB(), heap_base, heap_peak, gst_frames.frameBytes(), run.received());
+    std::printf("base=%ld\npeak=%ld\nheap_base=%ld\nheap_peak=%ld\nframe_bytes=%zu\nreceived=%ld\n", base, peakRssKiB(),
+                heap_base, heap_peak, gst_frames.frameBytes(), run.received());
     return 0;
 }
 #endif
@@ -135,11 +135,12 @@ void driver(const Options &o, bool element)
         "(held input frames, output frames in flight, pyramids, and what the allocator keeps), also in frames of "
         "the resolution. The peak of malloc'ed bytes in use (mallinfo2, sampled after every push) separates "
         "what is really held from what glibc keeps mapped; budget = delay + 4 = %d frames (element: + 4 for "
-        "appsrc's queue of 3 and the frame being pushed). Library: `Stabilizer` with at most threads+2 warps in flight; "
+        "appsrc's queue of 3 and the frame being pushed). Library: `Stabilizer` with at most threads+2 warps in "
+        "flight; "
         "element: `appsrc ! uavstabilize ! fakesink`, appsrc queueing at most 3 frames (counted here too).",
         kDistinct, delay, delay + 4));
-    Table t({"resolution", "what", "frames", "frame MiB", "base RSS MiB", "peak RSS MiB", "peak - base MiB",
-             "= frames", "peak heap in use - base MiB", "= frames", "heap within budget"});
+    Table t({"resolution", "what", "frames", "frame MiB", "base RSS MiB", "peak RSS MiB", "peak - base MiB", "= frames",
+             "peak heap in use - base MiB", "= frames", "heap within budget"});
     std::vector<std::string> modes{"lib"};
     if (element)
         modes.push_back("element");
@@ -163,8 +164,8 @@ void driver(const Options &o, bool element)
             putResult(o, "memory." + mode + "." + r.name() + ".heap_frames", heap_frames);
             putResult(o, "memory." + mode + "." + r.name() + ".peak_mib", mib(v.at("peak")));
             putResult(o, "memory." + mode + "." + r.name() + ".held_frames", in_frames);
-            std::printf("  memory %s %s: peak %.0f MiB, held %.0f MiB = %.1f frames\n", mode.c_str(),
-                        r.name().c_str(), mib(v.at("peak")), held, in_frames);
+            std::printf("  memory %s %s: peak %.0f MiB, held %.0f MiB = %.1f frames\n", mode.c_str(), r.name().c_str(),
+                        mib(v.at("peak")), held, in_frames);
             std::fflush(stdout);
         }
     }

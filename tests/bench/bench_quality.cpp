@@ -45,9 +45,9 @@ struct Clip {
     std::string group;  // synthetic clips are averaged per group
     int width = 0, height = 0;
     int fps_num = 30, fps_den = 1;
-    std::vector<FrameBuffer> frames;  // I420
-    std::vector<Similarity> truth;    // frame (centred) -> world; empty when unknown
-    std::vector<Similarity> intended; // the smooth part of the truth (synthetic only)
+    std::vector<FrameBuffer> frames;   // I420
+    std::vector<Similarity> truth;     // frame (centred) -> world; empty when unknown
+    std::vector<Similarity> intended;  // the smooth part of the truth (synthetic only)
     double fps() const { return double(fps_num) / fps_den; }
 };
 
@@ -363,7 +363,8 @@ Metrics analyze(const Clip &clip, const std::vector<Features> &input_features, c
             for (int i = r.start; i < r.end; ++i)
                 out2in[std::size_t(i)] = registerFeatures(feat[std::size_t(i)], input_features[std::size_t(i)]);
         });
-    std::vector<Similarity> o2i = is_input ? std::vector<Similarity>(n) : filled(out2in, Similarity{}, &m.failed_out2in);
+    std::vector<Similarity> o2i =
+        is_input ? std::vector<Similarity>(n) : filled(out2in, Similarity{}, &m.failed_out2in);
 
     if (!clip.truth.empty()) {
         std::vector<Similarity> path(n);
@@ -485,8 +486,7 @@ ClipResult evaluate(Clip clip, const std::vector<Method> &ms, bool real_measures
             out = runFfmpeg(clip, raw, "deshake=edge=blank", "");
             break;
         case Kind::VidstabDefault:
-            out = runFfmpeg(clip, raw, "vidstabtransform=input=" + trf + ":crop=black",
-                            "vidstabdetect=result=" + trf);
+            out = runFfmpeg(clip, raw, "vidstabtransform=input=" + trf + ":crop=black", "vidstabdetect=result=" + trf);
             break;
         case Kind::VidstabZoom:
             out = runFfmpeg(clip, raw, "vidstabtransform=input=" + trf + ":crop=black:optzoom=0:zoom=8.7", "");
@@ -555,7 +555,8 @@ void trajectoryPlot(const Options &o, const ClipResult &r, const std::string &fi
     std::vector<cv::Mat> panels;
     for (int k = 0; k < 3; ++k) {
         std::vector<Series> s;
-        s.push_back({"raw camera path (FrameStats.trajectory)", x, component(box->stats, false, k), paletteColor(0), 1});
+        s.push_back(
+            {"raw camera path (FrameStats.trajectory)", x, component(box->stats, false, k), paletteColor(0), 1});
         if (!intended.empty()) {
             std::vector<double> v;
             for (const Similarity &p : intended)
@@ -626,8 +627,8 @@ std::vector<double> collect(const std::vector<ClipResult> &results, const std::s
 Table truthTable(const Options &o, const std::string &prefix, const std::vector<ClipResult> &results,
                  const std::vector<Method> &ms, bool real_measures)
 {
-    std::vector<std::string> header{"method", "residual jitter px", "of input", "vs vid.stab default",
-                                    "coverage mean", "coverage min", "zoom mean (max)", "distortion max"};
+    std::vector<std::string> header{"method",        "residual jitter px", "of input",        "vs vid.stab default",
+                                    "coverage mean", "coverage min",       "zoom mean (max)", "distortion max"};
     if (real_measures) {
         header.push_back("stability t / r");
         header.push_back("ITF dB");
@@ -647,10 +648,14 @@ Table truthTable(const Options &o, const std::string &prefix, const std::vector<
         const double zoom = mean(collect(results, m.key, &Metrics::zoom_mean));
         const double zoom_max = maxOf(collect(results, m.key, &Metrics::zoom_max));
         const double dist = maxOf(collect(results, m.key, &Metrics::distortion_max));
-        std::vector<std::string> row{m.label, num(j), num(100 * j / input_j, "%.0f %%"),
+        std::vector<std::string> row{m.label,
+                                     num(j),
+                                     num(100 * j / input_j, "%.0f %%"),
                                      std::isfinite(vidstab_j) ? num(j / vidstab_j, "%.2fx") : "n/a",
-                                     num(cov_mean, "%.4f"), num(cov_min, "%.4f"),
-                                     num(zoom, "%.3f") + " (" + num(zoom_max, "%.3f") + ")", num(dist, "%.4f")};
+                                     num(cov_mean, "%.4f"),
+                                     num(cov_min, "%.4f"),
+                                     num(zoom, "%.3f") + " (" + num(zoom_max, "%.3f") + ")",
+                                     num(dist, "%.4f")};
         if (real_measures) {
             row.push_back(num(mean(collect(results, m.key, &Metrics::stability_t)), "%.3f") + " / " +
                           num(mean(collect(results, m.key, &Metrics::stability_r)), "%.3f"));
@@ -713,7 +718,7 @@ void sectionSynthetic(const Options &o, const std::vector<Method> &ms, std::vect
     Fragment frag(o, "quality_synthetic");
     std::vector<Resolution> sizes{{640, 360}, {1280, 720}};
     std::vector<std::uint32_t> seeds{1, 2, 3};
-    int frames = 200;
+    int frames = 160;
     if (o.quick) {
         sizes = {{640, 360}};
         seeds = {1};
@@ -735,8 +740,7 @@ void sectionSynthetic(const Options &o, const std::vector<Method> &ms, std::vect
     for (const Resolution &res : sizes)
         for (int objects : {0, 3})
             for (std::uint32_t seed : seeds)
-                results.push_back(
-                    evaluate(syntheticClip(res.width, res.height, seed, objects, frames), ms, false));
+                results.push_back(evaluate(syntheticClip(res.width, res.height, seed, objects, frames), ms, false));
 
     std::vector<std::string> header{"clip"};
     for (const Method &m : ms)
@@ -802,7 +806,8 @@ void sectionDrone(const Options &o, const std::vector<Method> &ms, std::vector<C
     const std::string errors = errorsOf(one);
     if (!errors.empty())
         frag.text("Problems:\n\n" + errors);
-    trajectoryPlot(o, one.front(), "trajectory_drone.png", "without the added shake (the drone's own motion not known)");
+    trajectoryPlot(o, one.front(), "trajectory_drone.png",
+                   "without the added shake (the drone's own motion not known)");
     frag.text("![trajectory](trajectory_drone.png)\n\nCamera path of the shaken drone clip: raw (estimated) and "
               "smoothed.");
     for (ClipResult &x : one)
@@ -830,7 +835,7 @@ void sectionReal(const Options &o, const std::vector<Method> &ms)
                   ".");
         return;
     }
-    const int max_frames = o.quick ? 100 : 300;
+    const int max_frames = o.quick ? 100 : 240;
     if (o.quick && files.size() > 3)
         files.resize(3);
     frag.text(format(

@@ -97,8 +97,8 @@ int main(int argc, char **argv)
                                    num(e / d, "%.1fx").c_str());
             if (std::isfinite(v))
                 m += format(" (vs vid.stab 2 passes: %s)", num(e / v, "%.1fx").c_str());
-            targets.push_back({"1920x1080 element >= 10x ffmpeg deshake", m,
-                               verdict(std::isfinite(e / d), e / d >= 10)});
+            targets.push_back(
+                {"1920x1080 element >= 10x ffmpeg deshake", m, verdict(std::isfinite(e / d), e / d >= 10)});
         }
         fpsTarget("1280x720", 400);
         fpsTarget("640x480", 800);
@@ -127,15 +127,16 @@ int main(int argc, char **argv)
             const double db = n.get("quality.drone.ours_box10.jitter"), dv = n.get("quality.drone.vidstab.jitter");
             const double dg = n.get("quality.drone.ours_gauss20.jitter");
             if (std::isfinite(db / dv))
-                targets.push_back({"(same on the real drone clip with known shake, for reference)",
-                                   format("box r10 %s px vs vid.stab %s px = %s (gaussian r20: %s px = %s)",
-                                          num(db, "%.2f").c_str(), num(dv, "%.2f").c_str(),
-                                          num(db / dv, "%.2fx").c_str(), num(dg, "%.2f").c_str(),
-                                          num(dg / dv, "%.2fx").c_str()),
-                                   verdict(true, db / dv <= 0.5)});
+                targets.push_back(
+                    {"(same on the real drone clip with known shake, for reference)",
+                     format("box r10 %s px vs vid.stab %s px = %s (gaussian r20: %s px = %s)", num(db, "%.2f").c_str(),
+                            num(dv, "%.2f").c_str(), num(db / dv, "%.2fx").c_str(), num(dg, "%.2f").c_str(),
+                            num(dg / dv, "%.2fx").c_str()),
+                     verdict(true, db / dv <= 0.5)});
         }
         {
-            const double c = n.get("quality.syn.ours_box10.coverage_mean"), z = n.get("quality.syn.ours_box10.zoom_max");
+            const double c = n.get("quality.syn.ours_box10.coverage_mean"),
+                         z = n.get("quality.syn.ours_box10.zoom_max");
             const double cmin = n.get("quality.syn.ours_box10.coverage_min");
             targets.push_back({"coverage mean >= 0.99 with zoom <= 1.10 (synthetic clips, default config)",
                                format("coverage mean %s (min %s), zoom max %s", num(c, "%.4f").c_str(),
@@ -153,12 +154,12 @@ int main(int argc, char **argv)
             const std::string mode = element ? "element" : "lib";
             const std::string k = "memory." + mode + ".1920x1080.heap_frames";
             const double budget = 24 + (element ? 4 : 0);
-            targets.push_back({format("memory about delay + 4 frames of buffers (1080p, %s%s)", mode.c_str(),
-                                      element ? ", + 4 for appsrc's queue" : ""),
-                               format("%s frames of malloc'ed memory at peak (RSS: %s frames)",
-                                      num(n.get(k), "%.1f").c_str(),
-                                      num(n.get("memory." + mode + ".1920x1080.held_frames"), "%.1f").c_str()),
-                               verdict(n.has(k), n.get(k) <= budget * 1.1)});
+            targets.push_back(
+                {format("memory about delay + 4 frames of buffers (1080p, %s%s)", mode.c_str(),
+                        element ? ", + 4 for appsrc's queue" : ""),
+                 format("%s frames of malloc'ed memory at peak (RSS: %s frames)", num(n.get(k), "%.1f").c_str(),
+                        num(n.get("memory." + mode + ".1920x1080.held_frames"), "%.1f").c_str()),
+                 verdict(n.has(k), n.get(k) <= budget * 1.1)});
         }
         r << "## Targets\n\n";
         Table tt({"target", "measured", "verdict"});
@@ -166,8 +167,8 @@ int main(int argc, char **argv)
             tt.row({t.what, t.measured, t.verdict});
         r << tt.markdown() << "\n";
         if (!element)
-            r << "The element was not measured: " << (n.text("element.skipped").empty() ? "see below" : n.text("element.skipped"))
-              << ".\n\n";
+            r << "The element was not measured: "
+              << (n.text("element.skipped").empty() ? "see below" : n.text("element.skipped")) << ".\n\n";
 
         // ---- speed -------------------------------------------------------------------
         r << "## Throughput\n\n";
@@ -187,10 +188,11 @@ int main(int argc, char **argv)
         for (const char *frag : {"speed_element", "speed_lib", "speed_peers", "speed_stages"}) {
             const std::string text = readFile(o.out_dir + "/" + frag + ".md");
             if (!text.empty())
-                r << "### " << (std::string(frag) == "speed_element" ? "Element"
-                                : std::string(frag) == "speed_lib"   ? "Library alone"
-                                : std::string(frag) == "speed_peers" ? "Peers (ffmpeg)"
-                                                                     : "Per-stage cost")
+                r << "### "
+                  << (std::string(frag) == "speed_element" ? "Element"
+                      : std::string(frag) == "speed_lib"   ? "Library alone"
+                      : std::string(frag) == "speed_peers" ? "Peers (ffmpeg)"
+                                                           : "Per-stage cost")
                   << "\n\n"
                   << text;
         }

@@ -30,8 +30,8 @@ using namespace bench;
 namespace {
 
 // One timed run: frames/s from the first push to the last pop.
-double libraryRun(const std::vector<FrameBuffer> &frames, long pushes, const StabilizerConfig &config,
-                  OutputPool &pool, long *failed)
+double libraryRun(const std::vector<FrameBuffer> &frames, long pushes, const StabilizerConfig &config, OutputPool &pool,
+                  long *failed)
 {
     Stabilizer stabilizer(config);
     // Bound the warps in flight, as a host with a fixed buffer pool would.
@@ -81,10 +81,14 @@ void sectionLibrary(const Options &o, const std::vector<ResolutionPlan> &plans,
                 config.threads = threads;
                 OutputPool pool(fmt, p.res.width, p.res.height);
                 long failed = 0;
-                libraryRun(frames, std::min<long>(p.pushes / 2, 60), config, pool, &failed);  // warm-up
                 std::vector<double> fps;
-                for (int r = 0; r < runs; ++r)
-                    fps.push_back(libraryRun(frames, p.pushes, config, pool, &failed));
+                measureQuietly("library " + p.res.name(), [&] {
+                    fps.clear();
+                    failed = 0;
+                    libraryRun(frames, std::min<long>(p.pushes / 2, 60), config, pool, &failed);  // warm-up
+                    for (int r = 0; r < runs; ++r)
+                        fps.push_back(libraryRun(frames, p.pushes, config, pool, &failed));
+                });
                 const double med = median(fps);
                 t.row({p.res.name(), formatName(fmt), std::to_string(threads), std::to_string(p.pushes),
                        spread(fps, "%.0f"), format("%.2f", 1000.0 / med)});
@@ -121,58 +125,61 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
         for (PixelFormat fmt : {PixelFormat::I420, PixelFormat::BGRx}) {
             const std::vector<FrameBuffer> frames = framesFromBgr(bgr, fmt);
             StabilizerConfig config;
-            cv::setNumThreads(1);
-            // Estimation.
-            MotionEstimator estimator(config);
-            std::vector<double> est;
-            const long n = o.quick ? 60 : 150;
-            for (long k = 0; k < n + 5; ++k) {
-                const auto t0 = Clock::now();
-                estimator.estimate(frames[std::size_t(pingPong(k, int(frames.size())))].view());
-                if (k >= 5)
-                    est.push_back(msBetween(t0, Clock::now()));
-            }
-            // Smoothing + framing on a realistic path (the flight's own motion estimates).
-            auto smoothCost = [&](SmootherKind kind, int radius) {
-                std::vector<Similarity> window;
-                Similarity pose;
-                for (int k = 0; k <= 2 * radius; ++k) {
-                    pose = pose * Similarity{1.5 + std::sin(k * 0.7), 0.5 * std::cos(k * 1.3), 0.001 * k, 1.0};
-                    window.push_back(pose);
-                }
-                const auto smoother = makeSmoother(kind, radius);
-                std::vector<double> ms;
-                for (int rep = 0; rep < 2000; ++rep) {
+            std::vector<double> est, box, gauss, warp1, warpN;
+            measureQuietly("stages " + p.res.name(), [&] {
+                cv::setNumThreads(1);
+                // Estimation.
+                MotionEstimator estimator(config);
+                est.clear();
+                const long n = o.quick ? 60 : 150;
+                for (long k = 0; k < n + 5; ++k) {
                     const auto t0 = Clock::now();
-                    const Similarity s = smoother->smooth(window, std::size_t(radius));
-                    const Framing f = frameOutput(s.inverse() * window[std::size_t(radius)], p.res.width,
-                                                  p.res.height, config.crop, config.limit_to_crop);
-                    ms.push_back(msBetween(t0, Clock::now()));
-                    if (f.zoom < 0)
-                        std::abort();
+                    estimator.estimate(frames[std::size_t(pingPong(k, int(frames.size())))].view());
+                    if (k >= 5)
+                        est.push_back(msBetween(t0, Clock::now()));
                 }
-                return ms;
-            };
-            const std::vector<double> box = smoothCost(SmootherKind::Box, 10);
-            const std::vector<double> gauss = smoothCost(SmootherKind::Gaussian, 20);
-            // Warp.
-            FrameBuffer out(fmt, p.res.width, p.res.height);
-            auto warpCost = [&]() {
-                const FrameWarper warper(BorderMode::Black);
-                std::vector<double> ms;
-                const int reps = o.quick ? 15 : 40;
-                for (int k = 0; k < reps + 2; ++k) {
-                    const Similarity m{0.7 * std::sin(k), 1.3 * std::cos(k), 0.004 * std::sin(0.5 * k), 0.92};
-                    const auto t0 = Clock::now();
-                    warper.warp(frames[std::size_t(k) % frames.size()].view(), out.view(), m);
-                    if (k >= 2)
+                // Smoothing + framing on a realistic path (the flight's own motion estimates).
+                auto smoothCost = [&](SmootherKind kind, int radius) {
+                    std::vector<Similarity> window;
+                    Similarity pose;
+                    for (int k = 0; k <= 2 * radius; ++k) {
+                        pose = pose * Similarity{1.5 + std::sin(k * 0.7), 0.5 * std::cos(k * 1.3), 0.001 * k, 1.0};
+                        window.push_back(pose);
+                    }
+                    const auto smoother = makeSmoother(kind, radius);
+                    std::vector<double> ms;
+                    for (int rep = 0; rep < 2000; ++rep) {
+                        const auto t0 = Clock::now();
+                        const Similarity s = smoother->smooth(window, std::size_t(radius));
+                        const Framing f = frameOutput(s.inverse() * window[std::size_t(radius)], p.res.width,
+                                                      p.res.height, config.crop, config.limit_to_crop);
                         ms.push_back(msBetween(t0, Clock::now()));
-                }
-                return ms;
-            };
-            const std::vector<double> warp1 = warpCost();
-            cv::setNumThreads(default_threads);
-            const std::vector<double> warpN = warpCost();
+                        if (f.zoom < 0)
+                            std::abort();
+                    }
+                    return ms;
+                };
+                box = smoothCost(SmootherKind::Box, 10);
+                gauss = smoothCost(SmootherKind::Gaussian, 20);
+                // Warp.
+                FrameBuffer out(fmt, p.res.width, p.res.height);
+                auto warpCost = [&]() {
+                    const FrameWarper warper(BorderMode::Black);
+                    std::vector<double> ms;
+                    const int reps = o.quick ? 15 : 40;
+                    for (int k = 0; k < reps + 2; ++k) {
+                        const Similarity m{0.7 * std::sin(k), 1.3 * std::cos(k), 0.004 * std::sin(0.5 * k), 0.92};
+                        const auto t0 = Clock::now();
+                        warper.warp(frames[std::size_t(k) % frames.size()].view(), out.view(), m);
+                        if (k >= 2)
+                            ms.push_back(msBetween(t0, Clock::now()));
+                    }
+                    return ms;
+                };
+                warp1 = warpCost();
+                cv::setNumThreads(default_threads);
+                warpN = warpCost();
+            });
             auto cell = [](const std::vector<double> &v, const char *f) {
                 return format(f, mean(v), percentile(v, 95));
             };
@@ -206,65 +213,69 @@ void sectionLatency(const Options &o, const std::vector<ResolutionPlan> &plans,
                      "processing latency = time from the start of push(frame i+delay) to output i being ready "
                      "(median, p99, max), beside one frame time (%.1f ms).",
                      fps, n, 1000.0 / fps));
-    Table t({"resolution", "delay (frames)", "delay (ms)", "processing median ms", "p99 ms", "max ms",
-             "p99 <= 1 frame"});
+    Table t(
+        {"resolution", "delay (frames)", "delay (ms)", "processing median ms", "p99 ms", "max ms", "p99 <= 1 frame"});
     for (const ResolutionPlan &p : plans) {
         const std::vector<FrameBuffer> frames = framesFromBgr(bgr_cache[p.res.name()], PixelFormat::I420);
         StabilizerConfig config;
-        Stabilizer stabilizer(config);
-        OutputPool pool(PixelFormat::I420, p.res.width, p.res.height);
-        std::mutex m;
-        std::condition_variable cv;
-        bool ready = false;
-        stabilizer.setReadyCallback([&] {
-            {
-                std::lock_guard<std::mutex> lock(m);
-                ready = true;
-            }
-            cv.notify_one();
-        });
-        std::vector<Clock::time_point> pushed{std::size_t(n)};
         std::vector<double> latency, delay_frames;
-        long pushed_count = 0;
-        auto drain = [&]() {
-            while (auto f = stabilizer.tryPop()) {
-                const auto now = Clock::now();
-                const long i = static_cast<const PoolSlot &>(*f->slot).index();
-                delay_frames.push_back(double(pushed_count - 1 - i));
-                const long j = i + config.delay;
-                if (j < n)
-                    latency.push_back(msBetween(pushed[std::size_t(j)], now));
+        measureQuietly("latency " + p.res.name(), [&] {
+            latency.clear();
+            delay_frames.clear();
+            Stabilizer stabilizer(config);
+            OutputPool pool(PixelFormat::I420, p.res.width, p.res.height);
+            std::mutex m;
+            std::condition_variable cv;
+            bool ready = false;
+            stabilizer.setReadyCallback([&] {
+                {
+                    std::lock_guard<std::mutex> lock(m);
+                    ready = true;
+                }
+                cv.notify_one();
+            });
+            std::vector<Clock::time_point> pushed{std::size_t(n)};
+            long pushed_count = 0;
+            auto drain = [&]() {
+                while (auto f = stabilizer.tryPop()) {
+                    const auto now = Clock::now();
+                    const long i = static_cast<const PoolSlot &>(*f->slot).index();
+                    delay_frames.push_back(double(pushed_count - 1 - i));
+                    const long j = i + config.delay;
+                    if (j < n)
+                        latency.push_back(msBetween(pushed[std::size_t(j)], now));
+                }
+            };
+            const auto start = Clock::now();
+            for (long k = 0; k < n; ++k) {
+                const auto due = start + std::chrono::microseconds(long(1e6 * k / fps));
+                for (;;) {
+                    std::unique_lock<std::mutex> lock(m);
+                    if (!cv.wait_until(lock, due, [&] { return ready; }))
+                        break;
+                    ready = false;
+                    lock.unlock();
+                    drain();
+                }
+                drain();
+                pushed[std::size_t(k)] = Clock::now();
+                stabilizer.push(
+                    std::make_unique<PoolSlot>(frames[std::size_t(pingPong(k, int(frames.size())))].view(), pool, k));
+                ++pushed_count;
             }
-        };
-        const auto start = Clock::now();
-        for (long k = 0; k < n; ++k) {
-            const auto due = start + std::chrono::microseconds(long(1e6 * k / fps));
-            for (;;) {
+            // Collect the warps still in flight as they land (up to 1 s), then flush.
+            const auto until = Clock::now() + std::chrono::seconds(1);
+            while (stabilizer.finalizedCount() > 0 && Clock::now() < until) {
                 std::unique_lock<std::mutex> lock(m);
-                if (!cv.wait_until(lock, due, [&] { return ready; }))
-                    break;
+                cv.wait_until(lock, until, [&] { return ready; });
                 ready = false;
                 lock.unlock();
                 drain();
             }
-            drain();
-            pushed[std::size_t(k)] = Clock::now();
-            stabilizer.push(std::make_unique<PoolSlot>(frames[std::size_t(pingPong(k, int(frames.size())))].view(),
-                                                       pool, k));
-            ++pushed_count;
-        }
-        // Collect the warps still in flight as they land (up to 1 s), then flush.
-        const auto until = Clock::now() + std::chrono::seconds(1);
-        while (stabilizer.finalizedCount() > 0 && Clock::now() < until) {
-            std::unique_lock<std::mutex> lock(m);
-            cv.wait_until(lock, until, [&] { return ready; });
-            ready = false;
-            lock.unlock();
-            drain();
-        }
-        stabilizer.flush();
-        while (auto f = stabilizer.waitPop()) {
-        }
+            stabilizer.flush();
+            while (auto f = stabilizer.waitPop()) {
+            }
+        });
         const double d = median(delay_frames);
         const double p50 = median(latency), p99 = percentile(latency, 99), mx = maxOf(latency);
         t.row({p.res.name(), format("%.0f", d), format("%.0f", d * 1000.0 / fps), format("%.1f", p50),
@@ -323,18 +334,22 @@ void sectionPeers(const Options &o, const std::vector<ResolutionPlan> &plans,
             return s;
         };
         std::vector<double> read_fps, deshake_fps, vs_fps, vsd_fps, vst_fps;
-        for (int r = 0; r < runs; ++r) {
-            read_fps.push_back(p.peer_frames / timed(in + "-f null -"));
-            if (deshake)
-                deshake_fps.push_back(p.peer_frames / timed(in + "-vf deshake -f null -"));
-            if (vidstab) {
-                const double a = timed(in + "-vf vidstabdetect=result=" + trf + " -f null -");
-                const double b = timed(in + "-vf vidstabtransform=input=" + trf + " -f null -");
-                vs_fps.push_back(p.peer_frames / (a + b));
-                vsd_fps.push_back(p.peer_frames / a);
-                vst_fps.push_back(p.peer_frames / b);
+        measureQuietly("peers " + p.res.name(), [&] {
+            for (auto *v : {&read_fps, &deshake_fps, &vs_fps, &vsd_fps, &vst_fps})
+                v->clear();
+            for (int r = 0; r < runs; ++r) {
+                read_fps.push_back(p.peer_frames / timed(in + "-f null -"));
+                if (deshake)
+                    deshake_fps.push_back(p.peer_frames / timed(in + "-vf deshake -f null -"));
+                if (vidstab) {
+                    const double a = timed(in + "-vf vidstabdetect=result=" + trf + " -f null -");
+                    const double b = timed(in + "-vf vidstabtransform=input=" + trf + " -f null -");
+                    vs_fps.push_back(p.peer_frames / (a + b));
+                    vsd_fps.push_back(p.peer_frames / a);
+                    vst_fps.push_back(p.peer_frames / b);
+                }
             }
-        }
+        });
         std::remove(raw.c_str());
         t.row({p.res.name(), std::to_string(p.peer_frames), spread(read_fps, "%.0f"),
                deshake ? spread(deshake_fps, "%.1f") : "n/a", vidstab ? spread(vs_fps, "%.1f") : "n/a",

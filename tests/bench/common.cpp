@@ -14,6 +14,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <thread>
 #include <unistd.h>
 
 #include <opencv2/imgproc.hpp>
@@ -136,7 +137,7 @@ LoadMonitor::Sample LoadMonitor::sample()
     const double hz = double(sysconf(_SC_CLK_TCK));
     s.busy = (user + nice + system + irq + softirq) / hz;
     s.steal = steal / hz;
-    rusage self {}, children {};
+    rusage self{}, children{};
     getrusage(RUSAGE_SELF, &self);
     getrusage(RUSAGE_CHILDREN, &children);
     auto secs = [](const timeval &t) { return double(t.tv_sec) + t.tv_usec * 1e-6; };
@@ -169,6 +170,40 @@ std::string LoadMonitor::describe() const
 {
     return format("%.0f %% of the CPUs' time went to other processes and %.0f %% was stolen by the hypervisor",
                   100 * foreignShare(), 100 * stealShare());
+}
+
+bool waitQuiet(double max_seconds, double share)
+{
+    const auto until = Clock::now() + std::chrono::duration<double>(max_seconds);
+    bool said = false;
+    for (;;) {
+        LoadMonitor m;
+        ::usleep(1000000);
+        if (m.foreignShare() < share)
+            return true;
+        if (Clock::now() > until)
+            return false;
+        if (!said) {
+            std::printf("  (waiting: other processes use %.0f %% of the CPUs)\n", 100 * m.foreignShare());
+            std::fflush(stdout);
+            said = true;
+        }
+    }
+}
+
+void measureQuietly(const std::string &what, const std::function<void()> &measure)
+{
+    for (int attempt = 1;; ++attempt) {
+        waitQuiet();
+        LoadMonitor m;
+        measure();
+        const double foreign = m.foreignShare();
+        if (foreign < 0.15 || attempt == 3)
+            return;
+        std::printf("  (%s: other processes took %.0f %% of the CPUs meanwhile; measuring again)\n", what.c_str(),
+                    100 * foreign);
+        std::fflush(stdout);
+    }
 }
 
 // ---- options / results ----------------------------------------------------------------

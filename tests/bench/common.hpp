@@ -37,10 +37,10 @@ std::string spread(const std::vector<double> &v, const char *number_format = "%.
 std::string format(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 // ---- process memory (Linux /proc) ----------------------------------------------------
-long rssKiB();       // VmRSS
-long peakRssKiB();   // VmHWM
-bool resetPeakRss(); // writes 5 to /proc/self/clear_refs: VmHWM := VmRSS
-long heapInUseKiB(); // malloc'ed bytes in use (mallinfo2: heap in use + mmapped chunks)
+long rssKiB();        // VmRSS
+long peakRssKiB();    // VmHWM
+bool resetPeakRss();  // writes 5 to /proc/self/clear_refs: VmHWM := VmRSS
+long heapInUseKiB();  // malloc'ed bytes in use (mallinfo2: heap in use + mmapped chunks)
 
 // CPU used by other processes (and stolen by the hypervisor) while a measurement ran:
 // the machine is shared, so every section reports it beside its numbers.
@@ -61,6 +61,15 @@ private:
     static Sample sample();
     Sample start_;
 };
+
+// Waits (up to max_seconds) until other processes use less than `share` of the CPUs,
+// sampled over 1 s; returns false on timeout.
+bool waitQuiet(double max_seconds = 120, double share = 0.15);
+
+// Runs `measure` (one configuration's set of runs) until other processes took less than
+// 15 % of the CPUs while it ran (at most 3 attempts, each after waitQuiet()): on a shared
+// machine a burst of someone else's work would otherwise pass for our slowness.
+void measureQuietly(const std::string &what, const std::function<void()> &measure);
 
 // ---- results ----------------------------------------------------------------------
 // Command-line options every benchmark program takes.

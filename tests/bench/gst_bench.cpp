@@ -110,8 +110,8 @@ ElementRun::ElementRun(const GstFrames &frames, const std::string &element_props
         throw std::runtime_error("cannot build pipeline: " + msg);
     }
     src_ = gst_bin_get_by_name(GST_BIN(pipeline_), "src");
-    g_object_set(src_, "caps", frames.caps(), "format", GST_FORMAT_TIME, "is-live", FALSE, "block", TRUE,
-                 "max-bytes", guint64(max_queued_buffers) * frames.frameBytes(), "emit-signals", FALSE, nullptr);
+    g_object_set(src_, "caps", frames.caps(), "format", GST_FORMAT_TIME, "is-live", FALSE, "block", TRUE, "max-bytes",
+                 guint64(max_queued_buffers) * frames.frameBytes(), "emit-signals", FALSE, nullptr);
     GstElement *sink = gst_bin_get_by_name(GST_BIN(pipeline_), "sink");
     g_signal_connect(sink, "handoff", G_CALLBACK(onHandoff), this);
     gst_object_unref(sink);
@@ -133,9 +133,9 @@ void ElementRun::onHandoff(GstElement *, GstBuffer *buffer, GstPad *, gpointer d
     auto *self = static_cast<ElementRun *>(data);
     const auto now = Clock::now();
     const GstClockTime pts = GST_BUFFER_PTS(buffer);
-    const long index = GST_CLOCK_TIME_IS_VALID(pts) ? long((pts + self->frames_.frameDuration() / 2) /
-                                                           self->frames_.frameDuration())
-                                                    : -1;
+    const long index = GST_CLOCK_TIME_IS_VALID(pts)
+                           ? long((pts + self->frames_.frameDuration() / 2) / self->frames_.frameDuration())
+                           : -1;
     if (self->recording_) {
         std::lock_guard<std::mutex> lock(self->mutex_);
         self->arrivals_.push_back({index, now, self->pushed_.load()});

@@ -58,8 +58,8 @@ cv::Size textSize(const std::string &s, double scale = 0.45, int thickness = 1)
 }
 
 // Draws title, grid, ticks and labels; returns the frame mapping data to pixels.
-Frame axes(cv::Mat &img, const std::string &title, const std::string &x_label, const std::string &y_label,
-           double x0, double x1, double y0, double y1, int legend_rows, bool x_ticks = true)
+Frame axes(cv::Mat &img, const std::string &title, const std::string &x_label, const std::string &y_label, double x0,
+           double x1, double y0, double y1, int legend_rows, bool x_ticks = true)
 {
     const int left = 80, right = 20, top = 38 + 20 * legend_rows, bottom = x_ticks ? 52 : 80;
     Frame f{cv::Rect(left, top, img.cols - left - right, img.rows - top - bottom), x0, x1, y0, y1};
@@ -139,14 +139,14 @@ void legend(cv::Mat &img, const Frame &f, const std::vector<std::string> &labels
 cv::Scalar paletteColor(int i)
 {
     static const cv::Scalar colors[] = {
-        {60, 60, 60},    // dark grey
-        {180, 119, 31},  // blue
-        {14, 127, 255},  // orange
-        {44, 160, 44},   // green
-        {40, 39, 214},   // red
-        {189, 103, 148}, // purple
-        {75, 86, 140},   // brown
-        {194, 119, 227}, // pink
+        {60, 60, 60},     // dark grey
+        {180, 119, 31},   // blue
+        {14, 127, 255},   // orange
+        {44, 160, 44},    // green
+        {40, 39, 214},    // red
+        {189, 103, 148},  // purple
+        {75, 86, 140},    // brown
+        {194, 119, 227},  // pink
     };
     return colors[std::size_t(i) % (sizeof colors / sizeof colors[0])];
 }

@@ -91,8 +91,7 @@ Registration registerFeatures(const Features &from, const Features &to)
     if (a.size() < 8)
         return r;
     std::vector<uchar> inliers;
-    const cv::Mat partial =
-        cv::estimateAffinePartial2D(a, b, inliers, cv::RANSAC, kRansacPx, 4000, 0.999, 20);
+    const cv::Mat partial = cv::estimateAffinePartial2D(a, b, inliers, cv::RANSAC, kRansacPx, 4000, 0.999, 20);
     if (partial.empty())
         return r;
     r.inliers = int(std::count(inliers.begin(), inliers.end(), uchar(1)));
