@@ -105,6 +105,9 @@ struct UavStabilizeState final : OutputBufferSource {
     GstCaps *caps = nullptr;
     GstVideoInfo info{};
     std::size_t max_finalized = 0;  // chain backpressure: finalized frames not yet popped
+    const void *checked_pool = nullptr;  // the upstream pool last looked at...
+    guint checked_needed = 0;            // ...and the buffers we needed then
+    bool copy_from_pool = false;         // its buffers are too few to hold: copy frames
 
     // Task thread only (or with the task stopped).
     GstSegment output_segment{};
@@ -446,6 +449,33 @@ void failStream(GstUavStabilize *self, UavStabilizeState &s, const char *what, c
 // ---------------------------------------------------------------------------------
 // Sink pad: data
 
+// A source whose fixed pool holds fewer buffers than we keep (v4l2src with a handful of
+// buffers, when it did not take up our allocation proposal) would starve waiting for
+// buffers we only give back `delay` frames later. Its frames are copied instead, and its
+// buffers go back at once. One copy per frame, only for such sources.
+BufferPtr detachFromSmallPool(GstUavStabilize *self, UavStabilizeState &s, BufferPtr buffer)
+{
+    GstBufferPool *pool = buffer->pool;
+    if (!pool)
+        return buffer;
+    const guint needed = guint(s.stabilizer->config().delay) + kExtraInputBuffers;
+    if (pool != s.checked_pool || needed != s.checked_needed) {
+        GstStructure *config = gst_buffer_pool_get_config(pool);
+        guint min = 0, max = 0;
+        gst_buffer_pool_config_get_params(config, nullptr, nullptr, &min, &max);
+        gst_structure_free(config);
+        s.checked_pool = pool;  // identity only; never dereferenced later
+        s.checked_needed = needed;
+        s.copy_from_pool = max != 0 && max < needed;
+        if (s.copy_from_pool)
+            GST_WARNING_OBJECT(self, "upstream pool %" GST_PTR_FORMAT " holds at most %u buffers but %u are held "
+                               "here: copying its frames so that it never starves", pool, max, needed);
+    }
+    if (!s.copy_from_pool)
+        return buffer;
+    return BufferPtr(gst_buffer_copy_deep(buffer.get()));
+}
+
 GstFlowReturn chainFrame(GstUavStabilize *self, UavStabilizeState &s, BufferPtr buffer)
 {
     {
@@ -464,6 +494,7 @@ GstFlowReturn chainFrame(GstUavStabilize *self, UavStabilizeState &s, BufferPtr 
     applyChangedSettings(self, s);
     if (GST_BUFFER_IS_DISCONT(buffer.get()))
         s.stabilizer->markDiscontinuity();
+    buffer = detachFromSmallPool(self, s, std::move(buffer));
 
     const gsize buffer_size = gst_buffer_get_size(buffer.get());
     std::unique_ptr<GstFrameSlot> slot = GstFrameSlot::map(buffer.release(), s.info, s);
@@ -560,6 +591,7 @@ bool handleCaps(GstUavStabilize *self, UavStabilizeState &s, EventPtr event)
 
     gst_caps_replace(&s.caps, caps);
     s.info = info;
+    s.checked_pool = nullptr;  // new caps, new upstream pool
     bool framerate_changed;
     {
         std::lock_guard<std::mutex> lock(s.mutex);

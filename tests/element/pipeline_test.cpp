@@ -12,31 +12,6 @@ using namespace element_test;
 
 namespace {
 
-GstElement *launch(const std::string &description)
-{
-    GError *error = nullptr;
-    GstElement *pipeline = gst_parse_launch(description.c_str(), &error);
-    fail_unless(pipeline != nullptr && error == nullptr, "cannot launch '%s': %s", description.c_str(),
-                error ? error->message : "?");
-    return GST_ELEMENT(gst_object_ref_sink(pipeline));
-}
-
-// Waits for one of `types`; fails on an error message.
-GstMessage *waitFor(GstElement *pipeline, GstMessageType types, GstClockTime timeout = 30 * GST_SECOND)
-{
-    GstBus *bus = gst_element_get_bus(pipeline);
-    GstMessage *message =
-        gst_bus_timed_pop_filtered(bus, timeout, GstMessageType(types | GST_MESSAGE_ERROR));
-    gst_object_unref(bus);
-    fail_unless(message != nullptr, "timed out waiting for a message");
-    if (GST_MESSAGE_TYPE(message) == GST_MESSAGE_ERROR) {
-        GError *error = nullptr;
-        gst_message_parse_error(message, &error, nullptr);
-        fail("error from the pipeline: %s", error->message);
-    }
-    return message;
-}
-
 int stateCycles()
 {
     const char *value = g_getenv("UAVSTABILIZE_STATE_CYCLES");
@@ -63,9 +38,9 @@ const char *const kBallPipeline = "videotestsrc pattern=ball is-live=false num-b
 
 GST_START_TEST(warm_up)
 {
-    GstElement *pipeline = launch(kBallPipeline);
+    GstElement *pipeline = launchPipeline(kBallPipeline);
     fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);
-    gst_message_unref(waitFor(pipeline, GST_MESSAGE_EOS));
+    gst_message_unref(waitForMessage(pipeline, GST_MESSAGE_EOS));
     gst_element_set_state(pipeline, GST_STATE_NULL);
     gst_object_unref(pipeline);
 }
@@ -73,7 +48,7 @@ GST_END_TEST;
 
 ELEMENT_TEST(playing_to_null_cycles_neither_deadlock_nor_leak)
 {
-    GstElement *pipeline = launch(kBallPipeline);
+    GstElement *pipeline = launchPipeline(kBallPipeline);
     const int cycles = stateCycles();
     for (int c = 0; c < cycles; ++c) {
         fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);
@@ -81,10 +56,10 @@ ELEMENT_TEST(playing_to_null_cycles_neither_deadlock_nor_leak)
         case 0:  // straight back down, frames in flight
             break;
         case 1:  // once prerolled
-            gst_message_unref(waitFor(pipeline, GST_MESSAGE_ASYNC_DONE));
+            gst_message_unref(waitForMessage(pipeline, GST_MESSAGE_ASYNC_DONE));
             break;
         case 2:  // after the whole stream
-            gst_message_unref(waitFor(pipeline, GST_MESSAGE_EOS));
+            gst_message_unref(waitForMessage(pipeline, GST_MESSAGE_EOS));
             break;
         default:  // somewhere in the middle
             std::this_thread::sleep_for(std::chrono::milliseconds(3 * c % 17));
@@ -99,7 +74,7 @@ ELEMENT_TEST(playing_to_null_cycles_neither_deadlock_nor_leak)
 ELEMENT_TEST(pausing_keeps_every_frame)
 {
     constexpr int kFrames = 60;
-    GstElement *pipeline = launch("videotestsrc pattern=ball is-live=false num-buffers=60 ! "
+    GstElement *pipeline = launchPipeline("videotestsrc pattern=ball is-live=false num-buffers=60 ! "
                                   "video/x-raw,format=NV12,width=160,height=120,framerate=100/1 ! "
                                   "uavstabilize threads=2 delay=10 ! fakesink name=sink sync=true signal-handoffs=true");
     HandoffLog log;
@@ -115,7 +90,7 @@ ELEMENT_TEST(pausing_keeps_every_frame)
         std::this_thread::sleep_for(std::chrono::milliseconds(80));
         fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);
     }
-    gst_message_unref(waitFor(pipeline, GST_MESSAGE_EOS));
+    gst_message_unref(waitForMessage(pipeline, GST_MESSAGE_EOS));
     {
         std::lock_guard<std::mutex> lock(log.mutex);
         fail_unless_equals_int(int(log.timestamps.size()), kFrames);
@@ -128,7 +103,7 @@ ELEMENT_TEST(pausing_keeps_every_frame)
 
 ELEMENT_TEST(live_pipeline_latency_includes_the_delay)
 {
-    GstElement *pipeline = launch("videotestsrc is-live=true ! "
+    GstElement *pipeline = launchPipeline("videotestsrc is-live=true ! "
                                   "video/x-raw,format=I420,width=160,height=120,framerate=30/1 ! "
                                   "uavstabilize threads=2 delay=20 ! fakesink sync=true processing-deadline=0");
     fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);

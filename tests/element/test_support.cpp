@@ -273,4 +273,28 @@ GstMessage *popMessage(GstBus *bus, GstMessageType types, GstClockTime timeout)
     return gst_bus_timed_pop_filtered(bus, timeout, types);
 }
 
+GstElement *launchPipeline(const std::string &description)
+{
+    GError *error = nullptr;
+    GstElement *pipeline = gst_parse_launch(description.c_str(), &error);
+    fail_unless(pipeline != nullptr && error == nullptr, "cannot launch '%s': %s", description.c_str(),
+                error ? error->message : "?");
+    return GST_ELEMENT(gst_object_ref_sink(pipeline));
+}
+
+GstMessage *waitForMessage(GstElement *pipeline, GstMessageType types, GstClockTime timeout)
+{
+    GstBus *bus = gst_element_get_bus(pipeline);
+    GstMessage *message =
+        gst_bus_timed_pop_filtered(bus, timeout, GstMessageType(types | GST_MESSAGE_ERROR));
+    gst_object_unref(bus);
+    fail_unless(message != nullptr, "timed out waiting for a message");
+    if (GST_MESSAGE_TYPE(message) == GST_MESSAGE_ERROR) {
+        GError *error = nullptr;
+        gst_message_parse_error(message, &error, nullptr);
+        fail("error from the pipeline: %s", error->message);
+    }
+    return message;
+}
+
 } // namespace element_test

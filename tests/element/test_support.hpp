@@ -116,6 +116,11 @@ private:
     std::vector<GstCaps *> caps_;
 };
 
+// A pipeline from a gst-launch description (fails the test if it cannot be built).
+GstElement *launchPipeline(const std::string &description);
+// Waits for one of `types` on the pipeline's bus; fails on timeout or an error message.
+GstMessage *waitForMessage(GstElement *pipeline, GstMessageType types, GstClockTime timeout = 30 * GST_SECOND);
+
 // Pops messages of `types` from the bus until one matches, or timeout (null).
 GstMessage *popMessage(GstBus *bus, GstMessageType types, GstClockTime timeout = 5 * GST_SECOND);
 
