@@ -1,9 +1,14 @@
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <random>
 
+#include <opencv2/imgproc.hpp>
+
 #include "buffer_slot.hpp"
+#include "format_conversion.hpp"
 #include "shaky_flight.hpp"
+#include "uavstab/framing.hpp"
 #include "uavstab/stabilizer.hpp"
 
 using namespace uavstab;
@@ -290,4 +295,43 @@ TEST(Stabilizer, FlashesAndBlackFramesNeverCrossASmoothingWindow)
             EXPECT_TRUE(f.stats.skipped);
             EXPECT_TRUE(f.stats.segment_start);
         }
+}
+
+TEST(Stabilizer, HostileContentNeverLosesFramesOrShowsBorder)
+{
+    // Heavy blur, a fast zoom, motion larger than the frame, and a scene whose only
+    // texture is one moving object: every frame comes back, in order, and the output
+    // stays covered (corrections are limited to what the crop hides).
+    synthetic::FlightOptions zoom;
+    zoom.frames = 60;
+    zoom.zoom_amplitude = 0.25;
+    const synthetic::ShakyFlight zooming(zoom), plain(synthetic::FlightOptions{});
+    auto blurred = [&](int i) {
+        cv::Mat bgr = plain.renderBgr(i);
+        cv::GaussianBlur(bgr, bgr, cv::Size(0, 0), 6.0);
+        FrameBuffer f(PixelFormat::I420, bgr.cols, bgr.rows);
+        synthetic::bgrToFrame(bgr, f);
+        return f;
+    };
+    auto jumping = [&](int i) { return plain.render((i * 97) % 300); };  // huge jumps
+    auto lone_object = [&](int i) {
+        FrameBuffer f(PixelFormat::Gray8, 320, 240);
+        f.fill(90);
+        for (int y = 0; y < 40; ++y)
+            for (int x = 0; x < 40; ++x)
+                f.row(0, 60 + y + i % 50)[40 + x + 2 * i] = std::uint8_t(((x / 5 + y / 5) % 2) ? 220 : 30);
+        return f;
+    };
+    const std::vector<std::function<FrameBuffer(int)>> clips = {blurred, [&](int i) { return zooming.render(i); },
+                                                                jumping, lone_object};
+    for (std::size_t c = 0; c < clips.size(); ++c) {
+        Stabilizer s(smallConfig(10));
+        std::vector<StabilizedFrame> frames;
+        EXPECT_EQ(roundTrip(s, 60, clips[c], &frames), iota(60)) << "clip " << c;
+        for (const auto &f : frames) {
+            EXPECT_EQ(f.outcome, Outcome::Warped);
+            const FrameView in = BufferSlot::of(f).inputBuffer().view();
+            EXPECT_TRUE(coversFrame(f.stats.output_to_input, in.width, in.height)) << "clip " << c;
+        }
+    }
 }
