@@ -269,10 +269,9 @@ bool waitUntilDrained(UavStabilizeState &s)
     return !s.flushing && s.last_flow == GST_FLOW_OK;
 }
 
-// Streaming thread, with the output queue drained and the new caps pushed.
-void negotiateOutputPool(GstUavStabilize *self, UavStabilizeState &s)
+// Installs `pool` (may be null) as the output pool and retires the previous one.
+void replaceOutputPool(UavStabilizeState &s, GstBufferPool *pool)
 {
-    GstBufferPool *pool = gstuavstab::negotiateOutputPool(self->srcpad, s.caps, s.info);
     GstBufferPool *old;
     {
         std::lock_guard<std::mutex> lock(s.mutex);
@@ -285,18 +284,15 @@ void negotiateOutputPool(GstUavStabilize *self, UavStabilizeState &s)
     }
 }
 
+// Streaming thread, with the output queue drained and the new caps pushed.
+void negotiateOutputPool(GstUavStabilize *self, UavStabilizeState &s)
+{
+    replaceOutputPool(s, gstuavstab::negotiateOutputPool(self->srcpad, s.caps, s.info));
+}
+
 void releaseOutputPool(UavStabilizeState &s)
 {
-    GstBufferPool *old;
-    {
-        std::lock_guard<std::mutex> lock(s.mutex);
-        old = s.pool;
-        s.pool = nullptr;
-    }
-    if (old) {
-        gst_buffer_pool_set_active(old, FALSE);
-        gst_object_unref(old);
-    }
+    replaceOutputPool(s, nullptr);
 }
 
 // ---------------------------------------------------------------------------------

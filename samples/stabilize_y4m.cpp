@@ -9,12 +9,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 #include <iostream>
-#include <sstream>
 #include <string>
 
 #include "jitter_metrics.hpp"
+#include "truth_csv.hpp"
 #include "uavstab/stabilizer.hpp"
 #include "y4m.hpp"
 
@@ -41,22 +40,6 @@ private:
     long index_;
 };
 
-std::vector<Similarity> readTruth(const std::string &path)
-{
-    std::vector<Similarity> poses;
-    std::ifstream csv(path);
-    std::string line;
-    std::getline(csv, line);  // header
-    while (std::getline(csv, line)) {
-        std::istringstream s(line);
-        char comma;
-        long frame;
-        Similarity p;
-        s >> frame >> comma >> p.dx >> comma >> p.dy >> comma >> p.angle >> comma >> p.scale;
-        poses.push_back(p);
-    }
-    return poses;
-}
 
 // Left: input, right: output, both I420.
 void writeSideBySide(synthetic::Y4mWriter &writer, const FrameBuffer &left, const FrameBuffer &right)
@@ -121,7 +104,7 @@ int main(int argc, char **argv)
         if (!sbs_path.empty())
             sbs = std::make_unique<synthetic::Y4mWriter>(sbs_path, 2 * reader.width(), reader.height(),
                                                          reader.fpsNum(), reader.fpsDen());
-        const std::vector<Similarity> truth = truth_path.empty() ? std::vector<Similarity>{} : readTruth(truth_path);
+        const std::vector<Similarity> truth = truth_path.empty() ? std::vector<Similarity>{} : synthetic::readTruthCsv(truth_path);
         std::vector<Similarity> true_in, true_out;
 
         Stabilizer stabilizer(config);

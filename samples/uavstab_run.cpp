@@ -12,14 +12,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include <gst/gst.h>
 
 #include "jitter_metrics.hpp"
+#include "truth_csv.hpp"
 
 using uavstab::Similarity;
 
@@ -36,22 +35,6 @@ Similarity readSimilarity(const GstStructure *s, const char *prefix)
     return m;
 }
 
-std::vector<Similarity> readTruth(const std::string &path)
-{
-    std::vector<Similarity> poses;
-    std::ifstream csv(path);
-    std::string line;
-    std::getline(csv, line);
-    while (std::getline(csv, line)) {
-        std::istringstream s(line);
-        char c;
-        long frame;
-        Similarity p;
-        s >> frame >> c >> p.dx >> c >> p.dy >> c >> p.angle >> c >> p.scale;
-        poses.push_back(p);
-    }
-    return poses;
-}
 
 struct FrameRecord {
     Similarity trajectory, correction;
@@ -217,7 +200,7 @@ int main(int argc, char **argv)
     if (frames.size() < 3 || width == 0)
         return 0;
     std::vector<Similarity> in, out;
-    const std::vector<Similarity> truth = truth_path.empty() ? std::vector<Similarity>{} : readTruth(truth_path);
+    const std::vector<Similarity> truth = truth_path.empty() ? std::vector<Similarity>{} : uavstab::synthetic::readTruthCsv(truth_path);
     const bool have_truth = truth.size() >= frames.size();
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const Similarity pose = have_truth ? truth[i] : frames[i].trajectory;

@@ -7,11 +7,11 @@
 #include <cstdlib>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <iostream>
 #include <string>
 
 #include "shaky_flight.hpp"
+#include "truth_csv.hpp"
 #include "y4m.hpp"
 
 using namespace uavstab;
@@ -64,19 +64,10 @@ int main(int argc, char **argv)
         options.format = PixelFormat::I420;
         const synthetic::ShakyFlight flight(options);
         synthetic::Y4mWriter writer(out, options.width, options.height, int(std::lround(options.fps * 1000)), 1000);
-        std::ofstream csv;
-        if (!truth.empty()) {
-            csv.open(truth);
-            csv << "frame,dx,dy,angle,scale,intended_dx,intended_dy,intended_angle,intended_scale\n";
-        }
-        for (int i = 0; i < flight.frameCount(); ++i) {
+        for (int i = 0; i < flight.frameCount(); ++i)
             writer.write(flight.render(i).view());
-            if (csv.is_open()) {
-                const Similarity t = flight.truePose(i), s = flight.intendedPose(i);
-                csv << i << ',' << t.dx << ',' << t.dy << ',' << t.angle << ',' << t.scale << ',' << s.dx << ','
-                    << s.dy << ',' << s.angle << ',' << s.scale << '\n';
-            }
-        }
+        if (!truth.empty())
+            synthetic::writeTruthCsv(truth, flight);
     } catch (const std::exception &e) {
         std::cerr << "uavstab-render-flight: " << e.what() << "\n";
         return 1;

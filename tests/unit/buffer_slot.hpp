@@ -1,8 +1,10 @@
-// A FrameSlot over owned FrameBuffers, carrying an id: how tests feed the Stabilizer.
+// Test helpers: a FrameSlot over owned FrameBuffers, carrying an id (how tests feed the
+// Stabilizer), and noise frames.
 #pragma once
 
 #include <memory>
 #include <optional>
+#include <random>
 
 #include "uavstab/frame_buffer.hpp"
 #include "uavstab/stabilizer.hpp"
@@ -35,5 +37,18 @@ private:
     FrameBuffer output_;
     int id_;
 };
+
+// Random bytes in every plane (padding included): not a plausible picture, which makes a
+// misplaced plane, channel or row show.
+inline FrameBuffer noiseFrame(PixelFormat format, int w, int h, unsigned seed, int padding = 0)
+{
+    FrameBuffer f(format, w, h, padding);
+    std::mt19937 rng(seed);
+    for (int p = 0; p < f.view().planeCount(); ++p)
+        for (int y = 0; y < f.view().planeHeight(p); ++y)
+            for (int x = 0; x < f.view().planeRowBytes(p); ++x)
+                f.row(p, y)[x] = std::uint8_t(rng());
+    return f;
+}
 
 } // namespace uavstab::test

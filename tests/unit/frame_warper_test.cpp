@@ -2,31 +2,20 @@
 
 #include <random>
 
+#include "buffer_slot.hpp"
 #include "format_conversion.hpp"
 #include "shaky_flight.hpp"
 #include "uavstab/frame_warper.hpp"
 #include "uavstab/framing.hpp"
 
 using namespace uavstab;
+using test::noiseFrame;
 
 namespace {
 
 const PixelFormat kAllFormats[] = {PixelFormat::Gray8, PixelFormat::I420, PixelFormat::YV12, PixelFormat::NV12,
                                    PixelFormat::NV21,  PixelFormat::RGB,  PixelFormat::BGR,  PixelFormat::RGBA,
                                    PixelFormat::BGRA,  PixelFormat::RGBx, PixelFormat::BGRx};
-
-// Random texture in every byte of every plane (not a plausible picture, which makes a
-// misplaced plane or channel show).
-FrameBuffer noiseFrame(PixelFormat format, int w, int h, unsigned seed, int padding = 0)
-{
-    FrameBuffer f(format, w, h, padding);
-    std::mt19937 rng(seed);
-    for (int p = 0; p < f.view().planeCount(); ++p)
-        for (int y = 0; y < f.view().planeHeight(p); ++y)
-            for (int x = 0; x < f.view().planeRowBytes(p); ++x)
-                f.row(p, y)[x] = std::uint8_t(rng());
-    return f;
-}
 
 } // namespace
 

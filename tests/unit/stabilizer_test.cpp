@@ -24,17 +24,6 @@ StabilizerConfig smallConfig(int delay)
     return c;
 }
 
-FrameBuffer texturedFrame(PixelFormat format, int w, int h, unsigned seed)
-{
-    FrameBuffer f(format, w, h);
-    std::mt19937 rng(seed);
-    for (int p = 0; p < f.view().planeCount(); ++p)
-        for (int y = 0; y < f.view().planeHeight(p); ++y)
-            for (int x = 0; x < f.view().planeRowBytes(p); ++x)
-                f.row(p, y)[x] = std::uint8_t(rng());
-    return f;
-}
-
 // Pushes n frames made by `make`, flushes, and returns the ids in the order they came back.
 template <typename Make>
 std::vector<int> roundTrip(Stabilizer &s, int n, Make make, std::vector<StabilizedFrame> *frames = nullptr)
@@ -86,11 +75,11 @@ TEST(Stabilizer, HoldsExactlyDelayFrames)
 {
     Stabilizer s(smallConfig(5));
     for (int i = 0; i < 5; ++i) {
-        s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
+        s.push(BufferSlot::make(test::noiseFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
         EXPECT_EQ(s.heldCount(), std::size_t(i + 1));
         EXPECT_FALSE(s.waitPop().has_value());  // nothing finalized yet: no wait
     }
-    s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, 9), 5));
+    s.push(BufferSlot::make(test::noiseFrame(PixelFormat::I420, 64, 64, 9), 5));
     EXPECT_EQ(s.heldCount(), 5u);
     auto first = s.waitPop();
     ASSERT_TRUE(first.has_value());
@@ -102,7 +91,7 @@ TEST(Stabilizer, DelayZeroReturnsEachFrameRightAway)
 {
     Stabilizer s(smallConfig(0));
     for (int i = 0; i < 5; ++i) {
-        s.push(BufferSlot::make(texturedFrame(PixelFormat::NV12, 64, 48, unsigned(i)), i));
+        s.push(BufferSlot::make(test::noiseFrame(PixelFormat::NV12, 64, 48, unsigned(i)), i));
         auto f = s.waitPop();
         ASSERT_TRUE(f.has_value());
         EXPECT_EQ(BufferSlot::of(*f).id(), i);
@@ -121,7 +110,7 @@ TEST(Stabilizer, BlackUniformAndNoiseFramesGiveIdentityAndNoCrash)
             else if (kind == 1)
                 f.fill(117);
             else
-                f = texturedFrame(PixelFormat::I420, 128, 96, unsigned(100 + i));  // unrelated noise
+                f = test::noiseFrame(PixelFormat::I420, 128, 96, unsigned(100 + i));  // unrelated noise
             return f;
         }, &frames);
         EXPECT_EQ(ids, iota(12));
@@ -141,7 +130,7 @@ TEST(Stabilizer, TinyAndOddSizesWork)
         for (PixelFormat format : {PixelFormat::I420, PixelFormat::NV21, PixelFormat::RGB, PixelFormat::Gray8}) {
             Stabilizer s(smallConfig(4));
             std::vector<StabilizedFrame> frames;
-            const auto ids = roundTrip(s, 8, [&](int i) { return texturedFrame(format, w, h, unsigned(i)); }, &frames);
+            const auto ids = roundTrip(s, 8, [&](int i) { return test::noiseFrame(format, w, h, unsigned(i)); }, &frames);
             EXPECT_EQ(ids, iota(8)) << w << "x" << h;
             for (const auto &f : frames)
                 EXPECT_EQ(f.outcome, Outcome::Warped) << w << "x" << h << " " << f.error;
@@ -154,7 +143,7 @@ TEST(Stabilizer, GeometryChangeFlushesAndStartsANewPath)
     Stabilizer s(smallConfig(6));
     std::vector<StabilizedFrame> frames;
     const auto ids = roundTrip(s, 20, [&](int i) {
-        return texturedFrame(i < 10 ? PixelFormat::I420 : PixelFormat::BGRx, i < 10 ? 96 : 80, 64, unsigned(i));
+        return test::noiseFrame(i < 10 ? PixelFormat::I420 : PixelFormat::BGRx, i < 10 ? 96 : 80, 64, unsigned(i));
     }, &frames);
     EXPECT_EQ(ids, iota(20));
     EXPECT_TRUE(frames[10].stats.segment_start);
@@ -165,12 +154,12 @@ TEST(Stabilizer, ResetDropsHeldFramesAndRestarts)
 {
     Stabilizer s(smallConfig(5));
     for (int i = 0; i < 8; ++i)
-        s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
+        s.push(BufferSlot::make(test::noiseFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
     s.reset();
     EXPECT_EQ(s.heldCount(), 0u);
     EXPECT_EQ(s.finalizedCount(), 0u);
     EXPECT_FALSE(s.tryPop().has_value());
-    const auto ids = roundTrip(s, 3, [&](int i) { return texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)); });
+    const auto ids = roundTrip(s, 3, [&](int i) { return test::noiseFrame(PixelFormat::I420, 64, 64, unsigned(i)); });
     EXPECT_EQ(ids, iota(3));
 }
 
@@ -181,9 +170,9 @@ TEST(Stabilizer, BypassHandsFramesBackUntouchedWithTheSameDelay)
     Stabilizer s(c);
     std::vector<StabilizedFrame> frames;
     for (int i = 0; i < 3; ++i)
-        s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
+        s.push(BufferSlot::make(test::noiseFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
     EXPECT_FALSE(s.tryPop().has_value());
-    EXPECT_EQ(roundTrip(s, 2, [&](int i) { return texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)); }, &frames),
+    EXPECT_EQ(roundTrip(s, 2, [&](int i) { return test::noiseFrame(PixelFormat::I420, 64, 64, unsigned(i)); }, &frames),
               (std::vector<int>{0, 1, 2, 0, 1}));
     for (const auto &f : frames)
         EXPECT_EQ(f.outcome, Outcome::Bypassed);
@@ -193,12 +182,12 @@ TEST(Stabilizer, ConfigChangesApplyAtTheNextPush)
 {
     Stabilizer s(smallConfig(10));
     for (int i = 0; i < 10; ++i)
-        s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
+        s.push(BufferSlot::make(test::noiseFrame(PixelFormat::I420, 64, 64, unsigned(i)), i));
     EXPECT_EQ(s.heldCount(), 10u);
     StabilizerConfig c = s.config();
     c.delay = 2;
     s.setConfig(c);
-    s.push(BufferSlot::make(texturedFrame(PixelFormat::I420, 64, 64, 10), 10));
+    s.push(BufferSlot::make(test::noiseFrame(PixelFormat::I420, 64, 64, 10), 10));
     EXPECT_EQ(s.heldCount(), 2u);  // the shorter delay releases the surplus, in order
     for (int i = 0; i < 9; ++i) {
         auto f = s.waitPop();
