@@ -48,14 +48,14 @@ void sectionThroughput(const Options &o, const std::vector<ResolutionPlan> &plan
                      "run includes the element's start-up and the drain of the %s-frame delay), median (min-max) "
                      "of %d runs after one warm-up run.",
                      "20", runs));
-    Table t({"resolution", "format", "threads", "frames/run", "fps median (min-max)", "ms/frame"});
+    Table t({"resolution", "format", "threads", "frames/run", "fps median (min-max)", "ms/frame", "other processes"});
     for (const ResolutionPlan &p : plans) {
         for (PixelFormat fmt : {PixelFormat::I420, PixelFormat::BGRx}) {
             const GstFrames frames(framesFromBgr(bgr[p.res.name()], fmt), 30);
             for (int threads : {1, 2}) {
                 std::string error;
                 std::vector<double> fps;
-                measureQuietly("element " + p.res.name(), [&] {
+                const double others = measureQuietly("element " + p.res.name(), [&] {
                     fps.clear();
                     elementRun(frames, std::min<long>(p.pushes / 2, 60), threads, &error);  // warm-up
                     for (int r = 0; r < runs && error.empty(); ++r) {
@@ -71,7 +71,7 @@ void sectionThroughput(const Options &o, const std::vector<ResolutionPlan> &plan
                 }
                 const double med = median(fps);
                 t.row({p.res.name(), formatName(fmt), std::to_string(threads), std::to_string(p.pushes),
-                       spread(fps, "%.0f"), format("%.2f", 1000.0 / med)});
+                       spread(fps, "%.0f"), format("%.2f", 1000.0 / med), loadCell(others)});
                 const std::string key = format("element.fps.%s.%s.t%d", p.res.name().c_str(), formatName(fmt), threads);
                 putResult(o, key, med);
                 putResult(o, key + ".min", minOf(fps));
@@ -98,14 +98,14 @@ void sectionLatency(const Options &o, const std::vector<ResolutionPlan> &plans,
                      "of frame i+delay into appsrc (median, p99, max), beside one frame time (%.1f ms).",
                      fps, n, 1000.0 / fps));
     Table t({"resolution", "delay (frames)", "delay (ms)", "LATENCY query (ms)", "processing median ms", "p99 ms",
-             "max ms", "p99 <= 1 frame"});
+             "max ms", "p99 <= 1 frame", "other processes"});
     for (const ResolutionPlan &p : plans) {
         const GstFrames frames(framesFromBgr(bgr[p.res.name()], PixelFormat::I420), fps);
         const int delay = 20;
         std::vector<double> latency, delays;
         gint64 query = -1;
         std::string error;
-        measureQuietly("element latency " + p.res.name(), [&] {
+        const double others = measureQuietly("element latency " + p.res.name(), [&] {
             latency.clear();
             delays.clear();
             ElementRun run(frames, "");
@@ -137,7 +137,7 @@ void sectionLatency(const Options &o, const std::vector<ResolutionPlan> &plans,
         const double p50 = median(latency), p99 = percentile(latency, 99), mx = maxOf(latency);
         t.row({p.res.name(), format("%.0f", d), format("%.0f", d * 1000.0 / fps),
                query >= 0 ? format("%.1f", query / 1e6) : "n/a", format("%.1f", p50), format("%.1f", p99),
-               format("%.1f", mx), p99 <= 1000.0 / fps ? "yes" : "no"});
+               format("%.1f", mx), p99 <= 1000.0 / fps ? "yes" : "no", loadCell(others)});
         const std::string key = "latency.element." + p.res.name();
         putResult(o, key + ".delay_frames", d);
         putResult(o, key + ".query_ms", query / 1e6);

@@ -71,7 +71,7 @@ void sectionLibrary(const Options &o, const std::vector<ResolutionPlan> &plans,
                      "output frames recycled from a pool, at most threads+2 warps in flight. Frames/s, median "
                      "(min-max) of %d runs after one warm-up run. OpenCV's own thread pool: %d threads.",
                      runs, cv::getNumThreads()));
-    Table t({"resolution", "format", "threads", "frames/run", "fps median (min-max)", "ms/frame"});
+    Table t({"resolution", "format", "threads", "frames/run", "fps median (min-max)", "ms/frame", "other processes"});
     for (const ResolutionPlan &p : plans) {
         const auto &bgr = bgr_cache[p.res.name()];
         for (PixelFormat fmt : {PixelFormat::I420, PixelFormat::BGRx}) {
@@ -82,7 +82,7 @@ void sectionLibrary(const Options &o, const std::vector<ResolutionPlan> &plans,
                 OutputPool pool(fmt, p.res.width, p.res.height);
                 long failed = 0;
                 std::vector<double> fps;
-                measureQuietly("library " + p.res.name(), [&] {
+                const double others = measureQuietly("library " + p.res.name(), [&] {
                     fps.clear();
                     failed = 0;
                     libraryRun(frames, std::min<long>(p.pushes / 2, 60), config, pool, &failed);  // warm-up
@@ -91,7 +91,7 @@ void sectionLibrary(const Options &o, const std::vector<ResolutionPlan> &plans,
                 });
                 const double med = median(fps);
                 t.row({p.res.name(), formatName(fmt), std::to_string(threads), std::to_string(p.pushes),
-                       spread(fps, "%.0f"), format("%.2f", 1000.0 / med)});
+                       spread(fps, "%.0f"), format("%.2f", 1000.0 / med), loadCell(others)});
                 const std::string key = format("lib.fps.%s.%s.t%d", p.res.name().c_str(), formatName(fmt), threads);
                 putResult(o, key, med);
                 putResult(o, key + ".min", minOf(fps));
@@ -118,7 +118,7 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
               "a full window, then `frameOutput`), and `FrameWarper::warp` of a whole frame (OpenCV limited to "
               "1 thread, and with OpenCV's default pool). ms/frame: mean (p95).");
     Table t({"resolution", "format", "estimate", "smooth box r10", "smooth gauss r20", "warp (1 cv thread)",
-             "warp (cv default)", "sum (1 thread)"});
+             "warp (cv default)", "sum (1 thread)", "other processes"});
     const int default_threads = cv::getNumThreads();
     for (const ResolutionPlan &p : plans) {
         const auto &bgr = bgr_cache[p.res.name()];
@@ -126,7 +126,7 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
             const std::vector<FrameBuffer> frames = framesFromBgr(bgr, fmt);
             StabilizerConfig config;
             std::vector<double> est, box, gauss, warp1, warpN;
-            measureQuietly("stages " + p.res.name(), [&] {
+            const double others = measureQuietly("stages " + p.res.name(), [&] {
                 cv::setNumThreads(1);
                 // Estimation.
                 MotionEstimator estimator(config);
@@ -185,7 +185,7 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
             };
             t.row({p.res.name(), formatName(fmt), cell(est, "%.2f (%.2f)"), cell(box, "%.4f (%.4f)"),
                    cell(gauss, "%.4f (%.4f)"), cell(warp1, "%.2f (%.2f)"), cell(warpN, "%.2f (%.2f)"),
-                   format("%.2f", mean(est) + mean(gauss) + mean(warp1))});
+                   format("%.2f", mean(est) + mean(gauss) + mean(warp1)), loadCell(others)});
             const std::string key = format("stage.%s.%s", p.res.name().c_str(), formatName(fmt));
             putResult(o, key + ".estimate_ms", mean(est));
             putResult(o, key + ".smooth_box10_ms", mean(box));
@@ -219,7 +219,7 @@ void sectionLatency(const Options &o, const std::vector<ResolutionPlan> &plans,
         const std::vector<FrameBuffer> frames = framesFromBgr(bgr_cache[p.res.name()], PixelFormat::I420);
         StabilizerConfig config;
         std::vector<double> latency, delay_frames;
-        measureQuietly("latency " + p.res.name(), [&] {
+        const double others = measureQuietly("latency " + p.res.name(), [&] {
             latency.clear();
             delay_frames.clear();
             Stabilizer stabilizer(config);
@@ -279,7 +279,7 @@ void sectionLatency(const Options &o, const std::vector<ResolutionPlan> &plans,
         const double d = median(delay_frames);
         const double p50 = median(latency), p99 = percentile(latency, 99), mx = maxOf(latency);
         t.row({p.res.name(), format("%.0f", d), format("%.0f", d * 1000.0 / fps), format("%.1f", p50),
-               format("%.1f", p99), format("%.1f", mx), p99 <= 1000.0 / fps ? "yes" : "no"});
+               format("%.1f", p99), format("%.1f", mx), p99 <= 1000.0 / fps ? "yes" : "no", loadCell(others)});
         const std::string key = "latency.lib." + p.res.name();
         putResult(o, key + ".delay_frames", d);
         putResult(o, key + ".p50_ms", p50);
@@ -313,7 +313,7 @@ void sectionPeers(const Options &o, const std::vector<ResolutionPlan> &plans,
                      runs, deshake ? "" : " deshake: not available in this ffmpeg.",
                      vidstab ? "" : " vid.stab: not available in this ffmpeg."));
     Table t({"resolution", "frames", "ffmpeg read fps", "deshake fps", "vid.stab fps (2 passes)", "vidstabdetect fps",
-             "vidstabtransform fps"});
+             "vidstabtransform fps", "other processes"});
     ScratchDir scratch("peers");
     for (const ResolutionPlan &p : plans) {
         const std::vector<FrameBuffer> frames = framesFromBgr(bgr_cache[p.res.name()], PixelFormat::I420);
@@ -334,7 +334,7 @@ void sectionPeers(const Options &o, const std::vector<ResolutionPlan> &plans,
             return s;
         };
         std::vector<double> read_fps, deshake_fps, vs_fps, vsd_fps, vst_fps;
-        measureQuietly("peers " + p.res.name(), [&] {
+        const double others = measureQuietly("peers " + p.res.name(), [&] {
             for (auto *v : {&read_fps, &deshake_fps, &vs_fps, &vsd_fps, &vst_fps})
                 v->clear();
             for (int r = 0; r < runs; ++r) {
@@ -353,7 +353,8 @@ void sectionPeers(const Options &o, const std::vector<ResolutionPlan> &plans,
         std::remove(raw.c_str());
         t.row({p.res.name(), std::to_string(p.peer_frames), spread(read_fps, "%.0f"),
                deshake ? spread(deshake_fps, "%.1f") : "n/a", vidstab ? spread(vs_fps, "%.1f") : "n/a",
-               vidstab ? spread(vsd_fps, "%.1f") : "n/a", vidstab ? spread(vst_fps, "%.1f") : "n/a"});
+               vidstab ? spread(vsd_fps, "%.1f") : "n/a", vidstab ? spread(vst_fps, "%.1f") : "n/a",
+               loadCell(others)});
         if (deshake)
             putResult(o, "peer.deshake.fps." + p.res.name(), median(deshake_fps));
         if (vidstab)

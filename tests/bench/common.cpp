@@ -191,7 +191,7 @@ bool waitQuiet(double max_seconds, double share)
     }
 }
 
-void measureQuietly(const std::string &what, const std::function<void()> &measure)
+double measureQuietly(const std::string &what, const std::function<void()> &measure)
 {
     for (int attempt = 1;; ++attempt) {
         waitQuiet();
@@ -199,11 +199,16 @@ void measureQuietly(const std::string &what, const std::function<void()> &measur
         measure();
         const double foreign = m.foreignShare();
         if (foreign < 0.15 || attempt == 3)
-            return;
+            return foreign;
         std::printf("  (%s: other processes took %.0f %% of the CPUs meanwhile; measuring again)\n", what.c_str(),
                     100 * foreign);
         std::fflush(stdout);
     }
+}
+
+std::string loadCell(double share)
+{
+    return format(share >= 0.15 ? "**%.0f %%**" : "%.0f %%", 100 * share);
 }
 
 // ---- options / results ----------------------------------------------------------------

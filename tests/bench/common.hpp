@@ -69,7 +69,10 @@ bool waitQuiet(double max_seconds = 120, double share = 0.15);
 // Runs `measure` (one configuration's set of runs) until other processes took less than
 // 15 % of the CPUs while it ran (at most 3 attempts, each after waitQuiet()): on a shared
 // machine a burst of someone else's work would otherwise pass for our slowness.
-void measureQuietly(const std::string &what, const std::function<void()> &measure);
+// Returns the share other processes took during the accepted attempt.
+double measureQuietly(const std::string &what, const std::function<void()> &measure);
+// "3 %" for a table cell.
+std::string loadCell(double share);
 
 // ---- results ----------------------------------------------------------------------
 // Command-line options every benchmark program takes.

@@ -83,7 +83,7 @@ opencv=$(dpkg-query -W -f='${Version}' libopencv-core406 2>/dev/null || echo unk
   echo "- Machine: $cpu, $(nproc) cores, $(free -g | awk '/Mem:/{print $2}') GiB RAM; $(. /etc/os-release && echo "$PRETTY_NAME"), kernel $(uname -r)"
   echo "- Software: $(g++ --version | head -1); GStreamer $(gst-inspect-1.0 --version 2>/dev/null | sed -n 2p | awk '{print $2}'); OpenCV $opencv; $(ffmpeg -version 2>/dev/null | head -1 | awk '{print "ffmpeg", $3}')"
   echo "- Command: \`bash tests/bench/run.sh${quick:+ --quick}\`$([[ ${#quick[@]} -gt 0 ]] && echo " (quick: fewer runs, resolutions and clips)")"
-  echo "- CPUs busy just before the run: ${start_busy} %; each section states the share other processes took while it ran."
+  echo "- The machine is shared: CPUs were ${start_busy} % busy just before the run. Each section states the share of the CPUs other processes took while it ran; the speed and latency tables give it per row (\"other processes\"): a measurement is repeated (up to 3 attempts, after waiting for a quiet moment) when others took 15 % or more, and the share is **bold** when it stayed that high."
   echo "- Real clips: $( [[ -d $data ]] && echo "\`../shared/data\` ($(ls "$data" | grep -cE '\.(mp4|avi)$') clips)" || echo "not present (sections skipped)")"
 } >"$out/header.md"
 
