@@ -13,6 +13,8 @@ namespace {
 
 constexpr int kMaxPyramidLevel = 3;
 constexpr double kQualityLevel = 0.01;
+// Smallest side of the half-size pyramid level on which corners are still detected.
+constexpr int kMinDetectionSide = 120;
 // Mean absolute difference (grey levels) between a tracked patch and where LK put it.
 // Real tracks stay far below; unrelated frames (noise, cuts, flashes) land near 85,
 // where forward and backward tracking can still agree on a spurious zero motion.
@@ -50,7 +52,7 @@ struct FeatureTracker::Impl {
     cv::Size analysis;
     LkGeometry lk{};
 
-    void detect(const cv::Mat &image);
+    void detect(const std::vector<cv::Mat> &pyramid);
     Point2 toFrame(cv::Point2f p) const;
 };
 
@@ -77,25 +79,31 @@ void FeatureTracker::setConfig(const StabilizerConfig &config)
         reset();
 }
 
-void FeatureTracker::Impl::detect(const cv::Mat &image)
+void FeatureTracker::Impl::detect(const std::vector<cv::Mat> &pyramid)
 {
+    // Corners are found on the half-size level when it is big enough: a quarter of the
+    // pixels for the eigenvalue map, and LK follows whatever point it is given anyway.
+    // The pyramid holds image, derivatives, image, derivatives... per level.
+    const int level = pyramid.size() > 2 && std::min(pyramid[2].cols, pyramid[2].rows) >= kMinDetectionSide ? 1 : 0;
+    const cv::Mat &image = pyramid[std::size_t(2 * level)];
     const double margin = (1.0 - config.roi) * 0.5;
     const cv::Rect roi(int(image.cols * margin), int(image.rows * margin),
                        std::max(1, int(std::lround(image.cols * config.roi))),
                        std::max(1, int(std::lround(image.rows * config.roi))));
     const cv::Rect region = roi & cv::Rect(0, 0, image.cols, image.rows);
     tracks.clear();
+    track_age = 0;
     if (region.width < 3 || region.height < 3)
         return;
     // Spread the corners: about one per (region area / max_corners), but not too sparse.
     const double spacing = std::sqrt(double(region.area()) / config.max_corners) * 0.5;
     cv::goodFeaturesToTrack(image(region), tracks, config.max_corners, kQualityLevel,
                             std::clamp(spacing, 2.0, 30.0));
+    const float scale = float(1 << level), offset = 0.5f * (scale - 1.0f);  // level pixel -> level 0
     for (auto &p : tracks) {
-        p.x += float(region.x);
-        p.y += float(region.y);
+        p.x = (p.x + float(region.x)) * scale + offset;
+        p.y = (p.y + float(region.y)) * scale + offset;
     }
-    track_age = 0;
 }
 
 Point2 FeatureTracker::Impl::toFrame(cv::Point2f p) const
@@ -121,6 +129,8 @@ PointMatches FeatureTracker::track(const FrameView &frame)
     // The pyramid is built once per frame and serves the forward track into this frame
     // and, next frame, the backward check and the track out of it. It copies the luma,
     // so the caller's frame need not outlive this call.
+    // With the derivatives: LK would otherwise compute them for whole levels itself, twice
+    // per frame (forward into it, backward out of it).
     cv::buildOpticalFlowPyramid(luma, d.current_pyramid, d.lk.window, d.lk.levels, true,
                                 cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
 
@@ -129,7 +139,7 @@ PointMatches FeatureTracker::track(const FrameView &frame)
     if (d.has_previous) {
         const std::size_t min_live = std::size_t(std::max(d.config.min_points, d.config.max_corners / 2));
         if (d.track_age >= d.config.redetect_interval || d.tracks.size() < min_live) {
-            d.detect(d.previous_pyramid[0]);
+            d.detect(d.previous_pyramid);
             matches.redetected = true;
         }
         matches.detected = int(d.tracks.size());
