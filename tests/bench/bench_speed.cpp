@@ -214,7 +214,8 @@ void sectionLatency(const Options &o, const std::vector<ResolutionPlan> &plans,
                      "(median, p99, max), beside one frame time (%.1f ms).",
                      fps, n, 1000.0 / fps));
     Table t(
-        {"resolution", "delay (frames)", "delay (ms)", "processing median ms", "p99 ms", "max ms", "p99 <= 1 frame"});
+        {"resolution", "delay (frames)", "delay (ms)", "processing median ms", "p99 ms", "max ms", "p99 <= 1 frame",
+         "other processes"});
     for (const ResolutionPlan &p : plans) {
         const std::vector<FrameBuffer> frames = framesFromBgr(bgr_cache[p.res.name()], PixelFormat::I420);
         StabilizerConfig config;
