@@ -589,7 +589,8 @@ void jitterPlot(const Options &o, const std::vector<ClipResult> &results, const 
             if (const Metrics *m = find(r, "input"); m && r.clip.group == g)
                 j.push_back(m->jitter);
         std::string label = g;
-        std::replace(label.begin(), label.end(), '/', ',');
+        for (std::size_t at; (at = label.find(" / ")) != std::string::npos;)
+            label.replace(at, 3, ", ");
         categories.push_back(label + format(" / (input: %.2f px)", mean(j)));
     }
     for (std::size_t k = 0; k < ms.size(); ++k) {
