@@ -420,7 +420,7 @@ ELEMENT_TEST(properties_have_the_documented_defaults)
                  "roi", &roi, "crop", &crop, "smoother", &smoother, "model", &model, "border", &border, "bypass",
                  &bypass, "post-messages", &post, nullptr);
     fail_unless_equals_int(delay, 20);
-    fail_unless_equals_int(radius, 10);
+    fail_unless_equals_int(radius, 20);
     fail_unless_equals_int(corners, 50);
     fail_unless_equals_int(redetect, 5);
     fail_unless_equals_int(dwell, 20);
@@ -430,12 +430,13 @@ ELEMENT_TEST(properties_have_the_documented_defaults)
     fail_unless_equals_float(roi, 0.8);
     fail_unless_equals_float(crop, 0.08);
     fail_unless(!bypass && !post);
+    fail_unless_equals_int(smoother, 1);  // gaussian
     // Enums are known by their nicks, as gst-launch spells them.
-    setProperties(element, "smoother=gaussian model=similarity border=replicate");
+    setProperties(element, "smoother=box model=similarity border=replicate");
     g_object_get(element, "smoother", &smoother, "model", &model, "border", &border, nullptr);
     GEnumClass *klass = G_ENUM_CLASS(g_type_class_ref(G_PARAM_SPEC_VALUE_TYPE(
         g_object_class_find_property(G_OBJECT_GET_CLASS(element), "smoother"))));
-    fail_unless_equals_string(g_enum_get_value(klass, smoother)->value_nick, "gaussian");
+    fail_unless_equals_string(g_enum_get_value(klass, smoother)->value_nick, "box");
     g_type_class_unref(klass);
     fail_unless_equals_int(model, 2);
     fail_unless_equals_int(border, 1);
