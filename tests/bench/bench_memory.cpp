@@ -228,7 +228,7 @@ int main(int argc, char **argv)
             std::fprintf(stderr, "mode %s not available\n", mode.c_str());
             return 2;
         }
-        const Options o = parseOptions(argc, argv);
+        const Options o = parseOptions(argc, argv, "usage: uavstab-bench-memory --out DIR [--quick]\n       uavstab-bench-memory --child lib|element WxH FRAMES [CHECKPOINT...]\n");
         driver(o, element);
     } catch (const std::exception &e) {
         std::cerr << "uavstab-bench-memory: " << e.what() << "\n";

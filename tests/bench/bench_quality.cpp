@@ -899,7 +899,7 @@ void sectionReal(const Options &o, const std::vector<Method> &ms)
 int main(int argc, char **argv)
 {
     try {
-        const Options o = parseOptions(argc, argv);
+        const Options o = parseOptions(argc, argv, "usage: uavstab-bench-quality --out DIR [--quick] [--data DIR] [--only synthetic|drone|real]...\n");
         const bool deshake = ffmpegHasFilter("deshake");
         const bool vidstab = ffmpegHasFilter("vidstabdetect") && ffmpegHasFilter("vidstabtransform");
         if (!deshake)

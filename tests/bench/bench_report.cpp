@@ -72,7 +72,7 @@ std::string verdict(bool measured, bool met)
 int main(int argc, char **argv)
 {
     try {
-        const Options o = parseOptions(argc, argv);
+        const Options o = parseOptions(argc, argv, "usage: uavstab-bench-report --out DIR [--quick]\n");
         const Numbers n(readSummary(o.out_dir + "/summary.tsv"));
         std::ostringstream r;
         r << readFile(o.out_dir + "/header.md") << "\n";

@@ -218,11 +218,15 @@ bool Options::wants(const std::string &section) const
     return only.empty() || std::find(only.begin(), only.end(), section) != only.end();
 }
 
-Options parseOptions(int argc, char **argv)
+Options parseOptions(int argc, char **argv, const char *usage)
 {
     Options o;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
+        if (a == "-h" || a == "--help") {
+            std::printf("%s", usage);
+            std::exit(0);
+        }
         auto value = [&]() -> std::string {
             if (i + 1 >= argc)
                 throw std::invalid_argument(a + " needs a value");

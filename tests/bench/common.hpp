@@ -84,7 +84,8 @@ struct Options {
     std::vector<std::string> rest;  // anything else, for the program
     bool wants(const std::string &section) const;
 };
-Options parseOptions(int argc, char **argv);
+// Prints `usage` and exits on -h/--help; unknown arguments go to Options::rest.
+Options parseOptions(int argc, char **argv, const char *usage);
 
 // Appends "key<TAB>value" lines to OUT/summary.tsv (read by the report assembler).
 void putResult(const Options &o, const std::string &key, double value);
