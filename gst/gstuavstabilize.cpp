@@ -260,6 +260,27 @@ void startFlushing(UavStabilizeState &s)
     s.changed.notify_all();
 }
 
+// Streaming thread: finalizes every held frame (end of stream, caps change, drain), one
+// at a time with the chain's backpressure, so that draining never takes more output
+// buffers at once than streaming does. False when flushing or downstream stopped.
+bool finalizeHeldFrames(UavStabilizeState &s)
+{
+    if (!s.stabilizer)
+        return true;
+    for (;;) {
+        {
+            std::unique_lock<std::mutex> lock(s.mutex);
+            s.changed.wait(lock, [&] {
+                return s.flushing || s.last_flow != GST_FLOW_OK || s.stabilizer->finalizedCount() <= s.max_finalized;
+            });
+            if (s.flushing || s.last_flow != GST_FLOW_OK)
+                return false;
+        }
+        if (!s.stabilizer->flushOne())
+            return true;
+    }
+}
+
 // Streaming thread: waits until every queued item is pushed and the task is idle. False
 // when flushing or when downstream stopped taking data.
 bool waitUntilDrained(UavStabilizeState &s)
@@ -578,9 +599,7 @@ bool handleCaps(GstUavStabilize *self, UavStabilizeState &s, EventPtr event)
     // New caps: the frames held so far go out first, with the old caps, then the
     // stabilizer starts a new path for the new geometry.
     GST_DEBUG_OBJECT(self, "new caps %" GST_PTR_FORMAT, caps);
-    if (s.stabilizer)
-        s.stabilizer->flush();
-    if (!waitUntilDrained(s))
+    if (!finalizeHeldFrames(s) || !waitUntilDrained(s))
         return false;
     if (s.stabilizer)
         s.stabilizer->reset();
@@ -652,9 +671,13 @@ bool handleSinkEvent(GstUavStabilize *self, UavStabilizeState &s, EventPtr event
     case GST_EVENT_CAPS:
         return handleCaps(self, s, std::move(event));
     case GST_EVENT_EOS:
-        // Every held frame goes out (truncated smoothing window), then EOS.
-        if (s.stabilizer)
-            s.stabilizer->flush();
+        // Every held frame goes out (truncated smoothing window), then EOS. If a flush
+        // interrupts the drain, EOS is dropped with the frames, as a flush does.
+        if (!finalizeHeldFrames(s)) {
+            std::lock_guard<std::mutex> lock(s.mutex);
+            if (s.flushing)
+                return false;
+        }
         return queueEvent(self, s, std::move(event));
     case GST_EVENT_GAP:
     case GST_EVENT_STREAM_START:
@@ -710,9 +733,7 @@ bool handleSinkQuery(GstUavStabilize *self, UavStabilizeState &s, GstPad *pad, G
         return gstuavstab::proposeInputAllocation(query, currentDelay(self) + kExtraInputBuffers);
     case GST_QUERY_DRAIN:
         // Everything held goes out before the answer.
-        if (s.stabilizer)
-            s.stabilizer->flush();
-        if (!waitUntilDrained(s))
+        if (!finalizeHeldFrames(s) || !waitUntilDrained(s))
             return false;
         gst_pad_peer_query(self->srcpad, query);
         return true;

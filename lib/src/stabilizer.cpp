@@ -147,9 +147,17 @@ void Stabilizer::push(std::unique_ptr<FrameSlot> slot)
 
 void Stabilizer::flush()
 {
+    while (flushOne()) {
+    }
+}
+
+bool Stabilizer::flushOne()
+{
     applyConfig();
-    while (!held_.empty())
-        finalizeOldest();
+    if (held_.empty())
+        return false;
+    finalizeOldest();
+    return true;
 }
 
 void Stabilizer::finalizeOldest()

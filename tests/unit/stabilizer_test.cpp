@@ -324,3 +324,41 @@ TEST(Stabilizer, HostileContentNeverLosesFramesOrShowsBorder)
         }
     }
 }
+
+TEST(Stabilizer, DrainingOneFrameAtATimeEqualsFlush)
+{
+    synthetic::FlightOptions options;
+    options.width = 320;
+    options.height = 180;
+    options.frames = 30;
+    const synthetic::ShakyFlight flight(options);
+    auto run = [&](bool one_at_a_time) {
+        Stabilizer s(smallConfig(20));
+        for (int i = 0; i < 30; ++i)
+            s.push(BufferSlot::make(flight.render(i), i));
+        std::vector<StabilizedFrame> frames;
+        while (auto f = s.waitPop())
+            frames.push_back(std::move(*f));
+        if (one_at_a_time) {
+            while (s.flushOne()) {
+                EXPECT_LE(s.finalizedCount(), 1u);  // the caller sets the pace
+                auto f = s.waitPop();
+                EXPECT_TRUE(f.has_value());
+                frames.push_back(std::move(*f));
+            }
+        } else {
+            s.flush();
+            while (auto f = s.waitPop())
+                frames.push_back(std::move(*f));
+        }
+        return frames;
+    };
+    const auto all = run(false), paced = run(true);
+    ASSERT_EQ(all.size(), 30u);
+    ASSERT_EQ(paced.size(), 30u);
+    for (std::size_t i = 0; i < 30; ++i) {
+        EXPECT_EQ(BufferSlot::of(paced[i]).id(), int(i));
+        EXPECT_DOUBLE_EQ(paced[i].stats.correction.dx, all[i].stats.correction.dx);
+        EXPECT_DOUBLE_EQ(paced[i].stats.correction.angle, all[i].stats.correction.angle);
+    }
+}

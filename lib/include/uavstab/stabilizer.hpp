@@ -77,6 +77,9 @@ public:
     void markDiscontinuity();
     // Finalizes every held frame (truncated smoothing window) so all can be popped.
     void flush();
+    // Finalizes the oldest held frame only, as flush() would; false when none is held.
+    // Lets a caller drain at its own pace: each finalized frame takes an output frame.
+    bool flushOne();
     // Drops every held and in-flight frame (waiting for warps that have started) and
     // starts afresh; frame indices restart at 0. Applies a changed thread count.
     void reset();
