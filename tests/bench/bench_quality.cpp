@@ -179,13 +179,17 @@ std::vector<Method> methods(bool deshake, bool vidstab)
 {
     std::vector<Method> m;
     m.push_back({"input", "input (no stabilization)", Kind::Input, {}});
-    StabilizerConfig box;  // library defaults: delay 20, box r10, crop 0.08
-    m.push_back({"ours_box10", "ours box r10 (default)", Kind::Ours, box});
+    // Both spelled out, so the rows keep their meaning when the library's defaults move.
+    StabilizerConfig box;
+    box.smoother = SmootherKind::Box;
+    box.smoothing_radius = 10;
+    box.delay = 20;
+    m.push_back({"ours_box10", "ours box r10 (the paper's)", Kind::Ours, box});
     StabilizerConfig gauss;
     gauss.smoother = SmootherKind::Gaussian;
     gauss.smoothing_radius = 20;
     gauss.delay = 20;
-    m.push_back({"ours_gauss20", "ours gaussian r20", Kind::Ours, gauss});
+    m.push_back({"ours_gauss20", "ours gaussian r20 (default)", Kind::Ours, gauss});
     if (vidstab) {
         m.push_back({"vidstab", "vid.stab default (optzoom=1)", Kind::VidstabDefault, {}});
         m.push_back({"vidstab_zoom", "vid.stab zoom 8.7 % (= ours)", Kind::VidstabZoom, {}});
@@ -563,9 +567,9 @@ void trajectoryPlot(const Options &o, const ClipResult &r, const std::string &fi
                 v.push_back(k == 0 ? p.dx : k == 1 ? p.dy : p.angle * 180.0 / kPi);
             s.push_back({truth_label, x, v, paletteColor(3), 1});
         }
-        s.push_back({"smoothed, box r10 (default)", x, component(box->stats, true, k), paletteColor(1), 2});
+        s.push_back({"smoothed, box r10 (the paper's)", x, component(box->stats, true, k), paletteColor(1), 2});
         if (gauss && gauss->stats.size() == n)
-            s.push_back({"smoothed, gaussian r20", x, component(gauss->stats, true, k), paletteColor(4), 2});
+            s.push_back({"smoothed, gaussian r20 (default)", x, component(gauss->stats, true, k), paletteColor(4), 2});
         panels.push_back(linePlot(format("%s: %s", r.clip.label.c_str(), names[k]), "frame", names[k], s));
     }
     writePng(o.out_dir + "/" + file, stackVertically(panels));
