@@ -207,6 +207,9 @@ int main(int argc, char **argv)
         r << "### Synthetic clips with known motion\n\n" << readFile(o.out_dir + "/quality_synthetic.md");
         r << "### Real drone clip with known shake\n\n" << readFile(o.out_dir + "/quality_drone.md");
         r << "### Real clips\n\n" << readFile(o.out_dir + "/quality_real.md");
+        const std::string reliability = readFile(o.out_dir + "/reliability.md");
+        if (!reliability.empty())
+            r << "## Reliability\n\n" << reliability;
         std::ofstream(o.out_dir + "/REPORT.md") << r.str();
         std::printf("wrote %s/REPORT.md\n", o.out_dir.c_str());
     } catch (const std::exception &e) {

@@ -111,6 +111,7 @@ if wants quality; then
   "$bin/uavstab-bench-quality" --out "$out" --data "$data" "${quick[@]}"
 fi
 step "report"
+cp tests/bench/reliability.md "$out/reliability.md"  # kept by hand: runs too long for the benchmark
 echo "- Duration of the run: $(( ($(date +%s) - t0) / 60 )) min $(( ($(date +%s) - t0) % 60 )) s" >>"$out/header.md"
 "$bin/uavstab-bench-report" --out "$out" "${quick[@]}"
 if [[ ${#quick[@]} -eq 0 && ${#only[@]} -eq 0 ]]; then
