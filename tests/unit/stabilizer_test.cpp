@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <functional>
 #include <random>
 
@@ -120,6 +121,35 @@ TEST(Stabilizer, BlackUniformAndNoiseFramesGiveIdentityAndNoCrash)
             if (f.stats.index > 0) {
                 EXPECT_TRUE(f.stats.skipped);
             }
+        }
+    }
+}
+
+TEST(Stabilizer, FramesWarpedInStripesEqualFramesWarpedWhole)
+{
+    // Two workers split a frame this size into row stripes; one worker warps it whole.
+    synthetic::FlightOptions options;
+    options.width = 1280;
+    options.height = 832;
+    options.frames = 8;
+    const synthetic::ShakyFlight flight(options);
+    std::vector<StabilizedFrame> results[2];
+    for (int threads : {1, 2}) {
+        StabilizerConfig c = smallConfig(3);
+        c.threads = threads;
+        Stabilizer s(c);
+        const auto ids = roundTrip(s, options.frames, [&](int i) { return flight.render(i); }, &results[threads - 1]);
+        ASSERT_EQ(ids, iota(options.frames));
+    }
+    for (int i = 0; i < options.frames; ++i) {
+        const FrameBuffer &whole = BufferSlot::of(results[0][std::size_t(i)]).outputBuffer();
+        const FrameBuffer &striped = BufferSlot::of(results[1][std::size_t(i)]).outputBuffer();
+        ASSERT_FALSE(results[0][std::size_t(i)].stats.correction.isIdentity(1e-6)) << "frame " << i;
+        for (int p = 0; p < whole.view().planeCount(); ++p) {
+            const int bytes = whole.view().planeWidth(p) * planeLayout(whole.format(), p).channels;
+            for (int y = 0; y < whole.view().planeHeight(p); ++y)
+                ASSERT_EQ(0, std::memcmp(whole.row(p, y), striped.row(p, y), std::size_t(bytes)))
+                    << "frame " << i << " plane " << p << " row " << y;
         }
     }
 }
