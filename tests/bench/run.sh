@@ -2,12 +2,13 @@
 # The benchmark of uavstabilize: throughput, latency, memory and quality of the library and
 # the GStreamer element, beside ffmpeg's deshake and vid.stab on the same frames.
 #
-#   bash tests/bench/run.sh            # full run (~20-25 min on 2 cores); updates tests/bench/REPORT.md + PNGs
+#   bash tests/bench/run.sh            # full run (~25 min on 2 cores); updates tests/bench/REPORT.md + PNGs
 #   bash tests/bench/run.sh --quick    # fewer runs/resolutions/clips (~3-5 min); report in the out dir only
 #
 # Options: --out DIR (default build-bench/bench-out), --no-wait (do not wait for a quiet
 # machine), --no-build (use the build dir as it is), --only PROGRAM (speed, element, memory,
-# quality; repeatable; the report is still assembled, from whatever the out dir holds).
+# quality, streams; repeatable; the report is still assembled from whatever the out dir holds,
+# under the header of the run that made it, with a line saying what was re-run).
 # Uses its own build dir, build-bench (UAVSTAB_BENCH_BUILD_DIR overrides). Real clips are
 # read from ../shared/data (relative to the repository) when present and skipped when not.
 # A benchmark, not a test: it reports numbers and never fails on them.
@@ -75,6 +76,10 @@ subject=$(git log -1 --format=%s 2>/dev/null || echo "")
 dirty=$(git status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo " (with uncommitted changes)" || true)
 cpu=$(grep -m1 "model name" /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')
 opencv=$(dpkg-query -W -f='${Version}' libopencv-core406 2>/dev/null || echo unknown)
+if [[ ${#only[@]} -gt 0 && -f $out/header.md ]]; then
+  # A partial re-run keeps the header of the run that made the other sections.
+  echo "- Re-run later: ${only[*]} ($(date -u '+%Y-%m-%d %H:%M UTC'), commit \`$(git rev-parse --short HEAD 2>/dev/null || echo unknown)\`$dirty; CPUs ${start_busy} % busy before)" >>"$out/header.md"
+else
 {
   echo "# uavstabilize benchmark report"
   echo
@@ -86,6 +91,7 @@ opencv=$(dpkg-query -W -f='${Version}' libopencv-core406 2>/dev/null || echo unk
   echo "- The machine is shared: CPUs were ${start_busy} % busy just before the run. Each section states the share of the CPUs other processes took while it ran; the speed and latency tables give it per row (\"other processes\"): a measurement is repeated (up to 3 attempts, after waiting for a quiet moment) when others took 15 % or more, and the share is **bold** when it stayed that high."
   echo "- Real clips: $( [[ -d $data ]] && echo "\`../shared/data\` ($(ls "$data" | grep -cE '\.(mp4|avi)$') clips)" || echo "not present (sections skipped)")"
 } >"$out/header.md"
+fi
 
 t0=$(date +%s)
 step() { echo; echo "== $1 ($(( $(date +%s) - t0 )) s)"; }
@@ -110,9 +116,13 @@ if wants quality; then
   step "quality"
   "$bin/uavstab-bench-quality" --out "$out" --data "$data" "${quick[@]}"
 fi
+if wants streams; then
+  step "live streams at once"
+  bash tests/bench/streams.sh --out "$out"
+fi
 step "report"
 cp tests/bench/reliability.md "$out/reliability.md"  # kept by hand: runs too long for the benchmark
-echo "- Duration of the run: $(( ($(date +%s) - t0) / 60 )) min $(( ($(date +%s) - t0) % 60 )) s" >>"$out/header.md"
+[[ ${#only[@]} -gt 0 ]] || echo "- Duration of the run: $(( ($(date +%s) - t0) / 60 )) min $(( ($(date +%s) - t0) % 60 )) s" >>"$out/header.md"
 "$bin/uavstab-bench-report" --out "$out" "${quick[@]}"
 if [[ ${#quick[@]} -eq 0 && ${#only[@]} -eq 0 ]]; then
   cp "$out/REPORT.md" "$out"/*.png "$repo/tests/bench/"
