@@ -38,6 +38,12 @@ GstPadProbeReturn count(GstPad *, GstPadProbeInfo *info, gpointer counter)
 
 int main(int argc, char **argv)
 {
+    // The plugin of this build first, so that no GST_PLUGIN_PATH is needed.
+    const char *old_path = std::getenv("GST_PLUGIN_PATH");
+    std::string plugin_path = UAVSTAB_GST_PLUGIN_DIR;
+    if (old_path && *old_path)
+        plugin_path += std::string(":") + old_path;
+    setenv("GST_PLUGIN_PATH", plugin_path.c_str(), 1);
     gst_init(&argc, &argv);
     bool live = false;
     long frames = 100000, seconds = 0;
