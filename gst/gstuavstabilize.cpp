@@ -260,6 +260,16 @@ void startFlushing(UavStabilizeState &s)
     s.changed.notify_all();
 }
 
+// Streaming thread: backpressure. Waits (with s.mutex held by `lock`) until few enough
+// finalized frames, each with an output buffer, wait for the src task, or until flushing
+// or downstream stopped taking data.
+void waitForOutputRoom(UavStabilizeState &s, std::unique_lock<std::mutex> &lock)
+{
+    s.changed.wait(lock, [&] {
+        return s.flushing || s.last_flow != GST_FLOW_OK || s.stabilizer->finalizedCount() <= s.max_finalized;
+    });
+}
+
 // Streaming thread: finalizes every held frame (end of stream, caps change, drain), one
 // at a time with the chain's backpressure, so that draining never takes more output
 // buffers at once than streaming does. False when flushing or downstream stopped.
@@ -270,9 +280,7 @@ bool finalizeHeldFrames(UavStabilizeState &s)
     for (;;) {
         {
             std::unique_lock<std::mutex> lock(s.mutex);
-            s.changed.wait(lock, [&] {
-                return s.flushing || s.last_flow != GST_FLOW_OK || s.stabilizer->finalizedCount() <= s.max_finalized;
-            });
+            waitForOutputRoom(s, lock);
             if (s.flushing || s.last_flow != GST_FLOW_OK)
                 return false;
         }
@@ -528,9 +536,7 @@ GstFlowReturn chainFrame(GstUavStabilize *self, UavStabilizeState &s, BufferPtr 
         // Backpressure: when downstream is slower than the warps, finalized frames (each
         // with an output buffer) pile up; wait here so memory stays bounded.
         std::unique_lock<std::mutex> lock(s.mutex);
-        s.changed.wait(lock, [&] {
-            return s.flushing || s.last_flow != GST_FLOW_OK || s.stabilizer->finalizedCount() <= s.max_finalized;
-        });
+        waitForOutputRoom(s, lock);
         if (s.flushing)
             return GST_FLOW_FLUSHING;
         if (s.last_flow != GST_FLOW_OK)
