@@ -45,7 +45,7 @@ struct FeatureTracker::Impl {
     std::vector<cv::Point2f> tracks;  // positions in the previous frame, analysis pixels
     std::vector<cv::Point2f> forward, backward;
     std::vector<uchar> status_forward, status_backward;
-    std::vector<float> errors_forward, errors_backward;
+    std::vector<float> errors_forward;
     int track_age = 0;
     bool has_previous = false;
     int frame_width = 0, frame_height = 0;
@@ -147,8 +147,10 @@ PointMatches FeatureTracker::track(const FrameView &frame)
             const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
             cv::calcOpticalFlowPyrLK(d.previous_pyramid, d.current_pyramid, d.tracks, d.forward,
                                      d.status_forward, d.errors_forward, d.lk.window, d.lk.levels, criteria);
+            // No patch error for the way back: only the forward one is checked, and OpenCV
+            // skips a full window resampling per point when it is not asked for.
             cv::calcOpticalFlowPyrLK(d.current_pyramid, d.previous_pyramid, d.forward, d.backward,
-                                     d.status_backward, d.errors_backward, d.lk.window, d.lk.levels, criteria);
+                                     d.status_backward, cv::noArray(), d.lk.window, d.lk.levels, criteria);
             std::vector<cv::Point2f> survivors;
             survivors.reserve(d.tracks.size());
             const float limit2 = float(d.config.fb_threshold * d.config.fb_threshold);

@@ -1,7 +1,7 @@
 // Speed and latency of the uavstabilize element in a pipeline:
 //   appsrc (frames made in memory beforehand) ! uavstabilize ! fakesink sync=false
 //
-//   uavstab-bench-element --out DIR [--quick] [--only throughput|latency]...
+//   uavstab-bench-element --out DIR [--quick] [--resolution WxH]... [--only throughput|latency]...
 #include <algorithm>
 #include <cmath>
 #include <iostream>
@@ -166,7 +166,7 @@ int main(int argc, char **argv)
             putResultText(o, "element.skipped", why);
             return 0;
         }
-        const std::vector<ResolutionPlan> plans = benchPlans(o.quick);
+        const std::vector<ResolutionPlan> plans = benchPlans(o);
         std::map<std::string, std::vector<cv::Mat>> bgr;
         for (const ResolutionPlan &p : plans)
             bgr[p.res.name()] = renderFlight(p.res.width, p.res.height, p.distinct);

@@ -3,7 +3,7 @@
 // (peak RSS is per process), on fresh input buffers per frame (a copy of one of 24
 // frames made in memory beforehand), as a decoder or camera would hand them over.
 //
-//   uavstab-bench-memory --out DIR [--quick]                    (driver: runs the children)
+//   uavstab-bench-memory --out DIR [--quick] [--resolution WxH]...                    (driver: runs the children)
 //   uavstab-bench-memory --child lib|element WxH FRAMES [CHECKPOINT...]
 #include <cmath>
 #include <cstring>
@@ -144,7 +144,7 @@ void driver(const Options &o, bool element)
     std::vector<std::string> modes{"lib"};
     if (element)
         modes.push_back("element");
-    for (const Resolution &r : benchResolutions(o.quick)) {
+    for (const Resolution &r : benchResolutions(o)) {
         for (const std::string &mode : modes) {
             const auto v = runChild(mode, r, frames, {});
             if (!v.count("peak")) {

@@ -180,7 +180,7 @@ int main(int argc, char **argv)
         r << "## Throughput\n\n";
         Table ratio({"resolution", "ours element fps", "ours library fps", "deshake fps", "vid.stab fps",
                      "element / deshake", "element / vid.stab", "library / deshake", "library / vid.stab"});
-        for (const Resolution &res : benchResolutions(false)) {
+        for (const Resolution &res : benchResolutions(Options{})) {
             const std::string s = res.name();
             const double e = n.get("element.fps." + s + ".I420.t2"), l = n.get("lib.fps." + s + ".I420.t2");
             const double d = n.get("peer.deshake.fps." + s), v = n.get("peer.vidstab.fps." + s);

@@ -1,7 +1,7 @@
 // Speed of the library alone and of the peers (ffmpeg deshake, vid.stab), on the same
 // synthetic frames made in memory beforehand, so that no decoding is measured.
 //
-//   uavstab-bench-speed --out DIR [--quick] [--only lib|stages|latency|peers]...
+//   uavstab-bench-speed --out DIR [--quick] [--resolution WxH]... [--only lib|stages|latency|peers]...
 //
 // lib      Stabilizer push/pop throughput: resolutions x {I420, BGRx} x {1, 2} worker threads
 // stages   per-stage cost: MotionEstimator::estimate, the smoother (+ framing), FrameWarper::warp
@@ -376,9 +376,7 @@ int main(int argc, char **argv)
         for (std::size_t i = 0; i + 1 < o.rest.size(); ++i)
             if (o.rest[i] == "--cv-threads")  // for experiments: OpenCV's pool size
                 cv::setNumThreads(std::atoi(o.rest[i + 1].c_str()));
-        std::vector<ResolutionPlan> plans;
-        for (const Resolution &r : benchResolutions(o.quick))
-            plans.push_back(planFor(r, o.quick));
+        const std::vector<ResolutionPlan> plans = benchPlans(o);
         std::map<std::string, std::vector<cv::Mat>> bgr;
         for (const ResolutionPlan &p : plans) {
             const auto t0 = Clock::now();

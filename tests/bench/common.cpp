@@ -240,6 +240,8 @@ Options parseOptions(int argc, char **argv, const char *usage)
             o.only.push_back(value());
         else if (a == "--data")
             o.data_dir = value();
+        else if (a == "--resolution")
+            o.resolutions.push_back(value());
         else
             o.rest.push_back(a);
     }
@@ -322,9 +324,19 @@ std::string Resolution::name() const
     return std::to_string(width) + "x" + std::to_string(height);
 }
 
-std::vector<Resolution> benchResolutions(bool quick)
+std::vector<Resolution> benchResolutions(const Options &o)
 {
-    if (quick)
+    if (!o.resolutions.empty()) {
+        std::vector<Resolution> chosen;
+        for (const std::string &name : o.resolutions) {
+            Resolution r{};
+            if (std::sscanf(name.c_str(), "%dx%d", &r.width, &r.height) != 2 || r.width < 16 || r.height < 16)
+                throw std::invalid_argument("--resolution wants WxH, got " + name);
+            chosen.push_back(r);
+        }
+        return chosen;
+    }
+    if (o.quick)
         return {{640, 480}, {1920, 1080}};
     return {{640, 480}, {1280, 720}, {1920, 1080}, {3840, 2160}};
 }
@@ -341,11 +353,11 @@ ResolutionPlan planFor(const Resolution &r, bool quick)
     return {r, 40, quick ? 80 : 120, quick ? 24 : 40};
 }
 
-std::vector<ResolutionPlan> benchPlans(bool quick)
+std::vector<ResolutionPlan> benchPlans(const Options &o)
 {
     std::vector<ResolutionPlan> plans;
-    for (const Resolution &r : benchResolutions(quick))
-        plans.push_back(planFor(r, quick));
+    for (const Resolution &r : benchResolutions(o))
+        plans.push_back(planFor(r, o.quick));
     return plans;
 }
 

@@ -81,6 +81,7 @@ struct Options {
     std::string out_dir = ".";
     std::vector<std::string> only;  // sections to run (empty = all)
     std::string data_dir;           // real clips (../shared/data relative to the repo)
+    std::vector<std::string> resolutions;  // --resolution WxH (repeatable): only these sizes
     std::vector<std::string> rest;  // anything else, for the program
     bool wants(const std::string &section) const;
 };
@@ -123,7 +124,8 @@ struct Resolution {
     int width, height;
     std::string name() const;
 };
-std::vector<Resolution> benchResolutions(bool quick);
+// The sizes a run covers: the standard set, or only those named by --resolution.
+std::vector<Resolution> benchResolutions(const Options &o);
 
 // How many frames each resolution gets in the speed runs.
 struct ResolutionPlan {
@@ -133,7 +135,7 @@ struct ResolutionPlan {
     int peer_frames;  // frames per ffmpeg run
 };
 ResolutionPlan planFor(const Resolution &r, bool quick);
-std::vector<ResolutionPlan> benchPlans(bool quick);
+std::vector<ResolutionPlan> benchPlans(const Options &o);
 const char *formatName(uavstab::PixelFormat f);
 
 // Frames of the synthetic shaky flight (two moving objects), rendered in memory (BGR).
