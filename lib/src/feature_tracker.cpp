@@ -44,6 +44,8 @@ struct FeatureTracker::Impl {
     std::vector<cv::Mat> previous_pyramid, current_pyramid;
     std::vector<cv::Point2f> tracks;  // positions in the previous frame, analysis pixels
     std::vector<cv::Point2f> forward, backward;
+    std::vector<std::size_t> kept;           // tracks that passed the forward checks
+    std::vector<cv::Point2f> kept_forward;   // where they went
     std::vector<uchar> status_forward, status_backward;
     std::vector<float> errors_forward;
     int track_age = 0;
@@ -147,18 +149,29 @@ PointMatches FeatureTracker::track(const FrameView &frame)
             const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
             cv::calcOpticalFlowPyrLK(d.previous_pyramid, d.current_pyramid, d.tracks, d.forward,
                                      d.status_forward, d.errors_forward, d.lk.window, d.lk.levels, criteria);
-            // No patch error for the way back: only the forward one is checked, and OpenCV
-            // skips a full window resampling per point when it is not asked for.
-            cv::calcOpticalFlowPyrLK(d.current_pyramid, d.previous_pyramid, d.forward, d.backward,
-                                     d.status_backward, cv::noArray(), d.lk.window, d.lk.levels, criteria);
-            std::vector<cv::Point2f> survivors;
-            survivors.reserve(d.tracks.size());
-            const float limit2 = float(d.config.fb_threshold * d.config.fb_threshold);
+            // Only tracks that passed the forward checks go back: the rest are dropped anyway.
             const cv::Rect2f inside(0.f, 0.f, float(d.analysis.width - 1), float(d.analysis.height - 1));
+            d.kept.clear();
+            d.kept_forward.clear();
             for (std::size_t i = 0; i < d.tracks.size(); ++i) {
-                const cv::Point2f e = d.backward[i] - d.tracks[i];
-                if (!d.status_forward[i] || !d.status_backward[i] || e.dot(e) > limit2 ||
-                    d.errors_forward[i] > kMaxPatchError || !inside.contains(d.forward[i]))
+                if (d.status_forward[i] && d.errors_forward[i] <= kMaxPatchError && inside.contains(d.forward[i])) {
+                    d.kept.push_back(i);
+                    d.kept_forward.push_back(d.forward[i]);
+                }
+            }
+            std::vector<cv::Point2f> survivors;
+            survivors.reserve(d.kept.size());
+            if (!d.kept.empty()) {
+                // No patch error for the way back: only the forward one is checked, and
+                // OpenCV skips a window resampling per point when it is not asked for.
+                cv::calcOpticalFlowPyrLK(d.current_pyramid, d.previous_pyramid, d.kept_forward, d.backward,
+                                         d.status_backward, cv::noArray(), d.lk.window, d.lk.levels, criteria);
+            }
+            const float limit2 = float(d.config.fb_threshold * d.config.fb_threshold);
+            for (std::size_t k = 0; k < d.kept.size(); ++k) {
+                const std::size_t i = d.kept[k];
+                const cv::Point2f e = d.backward[k] - d.tracks[i];
+                if (!d.status_backward[k] || e.dot(e) > limit2)
                     continue;
                 matches.previous.push_back(d.toFrame(d.tracks[i]));
                 matches.current.push_back(d.toFrame(d.forward[i]));
