@@ -60,7 +60,8 @@ namespace {
 #define UAVSTABILIZE_CAPS                                                                                     \
     "video/x-raw, "                                                                                           \
     "format = (string) { I420, YV12, NV12, NV21, GRAY8, RGB, BGR, RGBA, BGRA, RGBx, BGRx }, "                \
-    "width = (int) [ 16, MAX ], height = (int) [ 16, MAX ], framerate = (fraction) [ 0/1, MAX ]"
+    "width = (int) [ 16, MAX ], height = (int) [ 16, MAX ], framerate = (fraction) [ 0/1, MAX ], "              \
+    "interlace-mode = (string) progressive"
 
 GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(UAVSTABILIZE_CAPS));
@@ -599,6 +600,12 @@ bool handleCaps(GstUavStabilize *self, UavStabilizeState &s, EventPtr event)
         GST_WARNING_OBJECT(self, "unusable caps %" GST_PTR_FORMAT, caps);
         return false;
     }
+    if (GST_VIDEO_INFO_INTERLACE_MODE(&info) != GST_VIDEO_INTERLACE_MODE_PROGRESSIVE) {
+        GST_ELEMENT_ERROR(self, STREAM, FORMAT, ("Interlaced video is not supported"),
+                          ("interlace-mode %s: put a deinterlacer before uavstabilize",
+                           gst_video_interlace_mode_to_string(GST_VIDEO_INFO_INTERLACE_MODE(&info))));
+        return false;
+    }
     if (s.caps && gst_caps_is_equal(s.caps, caps))
         return queueEvent(self, s, std::move(event));
 
@@ -713,13 +720,33 @@ gboolean sinkEvent(GstPad *, GstObject *parent, GstEvent *event)
 // ---------------------------------------------------------------------------------
 // Queries
 
+// Caps without an interlace-mode field are progressive (GstVideoInfo reads them so); the
+// template names the field, so add it before comparing.
+GstCaps *withInterlaceMode(GstCaps *caps)
+{
+    GstCaps *copy = gst_caps_copy(caps);
+    for (guint i = 0; i < gst_caps_get_size(copy); ++i) {
+        GstStructure *structure = gst_caps_get_structure(copy, i);
+        if (!gst_structure_has_field(structure, "interlace-mode"))
+            gst_structure_set(structure, "interlace-mode", G_TYPE_STRING, "progressive", nullptr);
+    }
+    return copy;
+}
+
 bool acceptCaps(GstUavStabilize *self, GstPad *pad, GstQuery *query)
 {
     GstCaps *caps = nullptr;
     gst_query_parse_accept_caps(query, &caps);
     GstCaps *templ = gst_pad_get_pad_template_caps(pad);
-    bool accepted = gst_caps_is_subset(caps, templ);
+    // Interlaced frames are refused: warping a frame of two fields moves each field's lines
+    // into the other's, so the output would comb. A deinterlacer in front fixes that.
+    GstCaps *normalized = withInterlaceMode(caps);
+    bool accepted = gst_caps_is_subset(normalized, templ);
+    gst_caps_unref(normalized);
     gst_caps_unref(templ);
+    if (!accepted)
+        GST_INFO_OBJECT(self, "refusing %" GST_PTR_FORMAT " (interlaced video needs a deinterlacer before "
+                        "uavstabilize)", caps);
     // Output caps are the input caps, so downstream must take them too.
     if (accepted && gst_pad_is_linked(self->srcpad))
         accepted = gst_pad_peer_query_accept_caps(self->srcpad, caps);

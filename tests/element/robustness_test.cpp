@@ -158,6 +158,35 @@ ELEMENT_TEST(frames_smaller_than_16_pixels_are_refused_at_negotiation)
     gst_object_unref(element);
 }
 
+ELEMENT_TEST(interlaced_video_is_refused_at_negotiation)
+{
+    // Warping a frame of two fields would mix them: interlaced caps are refused so that the
+    // pipeline fails to link (or upstream picks progressive) instead of combing the output.
+    GstElement *element = makeStabilizer();
+    GstPad *sink = gst_element_get_static_pad(element, "sink");
+    for (const char *mode : {"interleaved", "mixed", "alternate", "fields"}) {
+        GstCaps *caps = videoCaps("I420", 64, 48);
+        gst_caps_set_simple(caps, "interlace-mode", G_TYPE_STRING, mode, nullptr);
+        fail_if(gst_pad_query_accept_caps(sink, caps), "interlace-mode %s accepted", mode);
+        gst_caps_unref(caps);
+    }
+    GstCaps *progressive = videoCaps("I420", 64, 48);
+    fail_unless(gst_pad_query_accept_caps(sink, progressive), "caps without interlace-mode refused");
+    gst_caps_set_simple(progressive, "interlace-mode", G_TYPE_STRING, "progressive", nullptr);
+    fail_unless(gst_pad_query_accept_caps(sink, progressive), "progressive caps refused");
+    gst_caps_unref(progressive);
+    // Upstream asking what we take is told: progressive only.
+    GstCaps *offered = gst_pad_query_caps(sink, nullptr);
+    fail_unless(gst_caps_get_size(offered) > 0);
+    for (guint i = 0; i < gst_caps_get_size(offered); ++i) {
+        const char *mode = gst_structure_get_string(gst_caps_get_structure(offered, i), "interlace-mode");
+        fail_unless(mode && std::string(mode) == "progressive", "caps query offers %s", mode ? mode : "any");
+    }
+    gst_caps_unref(offered);
+    gst_object_unref(sink);
+    gst_object_unref(element);
+}
+
 ELEMENT_TEST(upstream_pool_with_few_buffers_never_starves)
 {
     // A source with a fixed pool of 4 buffers (fewer than the 20 held): its frames are
@@ -325,6 +354,7 @@ Suite *robustnessSuite()
     tcase_add_test(tc, caps_change_every_frame);
     tcase_add_test(tc, tiny_odd_and_huge_frames);
     tcase_add_test(tc, frames_smaller_than_16_pixels_are_refused_at_negotiation);
+    tcase_add_test(tc, interlaced_video_is_refused_at_negotiation);
     tcase_add_test(tc, upstream_pool_with_few_buffers_never_starves);
     tcase_add_test(tc, property_changes_from_another_thread_while_playing);
     tcase_add_test(tc, flush_storm_of_seeks);
