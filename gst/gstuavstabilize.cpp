@@ -745,8 +745,8 @@ bool acceptCaps(GstUavStabilize *self, GstPad *pad, GstQuery *query)
     gst_caps_unref(normalized);
     gst_caps_unref(templ);
     if (!accepted)
-        GST_INFO_OBJECT(self, "refusing %" GST_PTR_FORMAT " (interlaced video needs a deinterlacer before "
-                        "uavstabilize)", caps);
+        GST_INFO_OBJECT(self, "refusing %" GST_PTR_FORMAT " (the template takes the listed formats, 16x16 and "
+                        "up, progressive only: interlaced video needs a deinterlacer in front)", caps);
     // Output caps are the input caps, so downstream must take them too.
     if (accepted && gst_pad_is_linked(self->srcpad))
         accepted = gst_pad_peer_query_accept_caps(self->srcpad, caps);

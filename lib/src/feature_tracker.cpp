@@ -154,7 +154,7 @@ PointMatches FeatureTracker::track(const FrameView &frame)
             d.kept.clear();
             d.kept_forward.clear();
             for (std::size_t i = 0; i < d.tracks.size(); ++i) {
-                if (d.status_forward[i] && d.errors_forward[i] <= kMaxPatchError && inside.contains(d.forward[i])) {
+                if (d.status_forward[i] && !(d.errors_forward[i] > kMaxPatchError) && inside.contains(d.forward[i])) {
                     d.kept.push_back(i);
                     d.kept_forward.push_back(d.forward[i]);
                 }
