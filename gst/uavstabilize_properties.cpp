@@ -17,6 +17,7 @@ enum Property {
     PROP_ROI,
     PROP_REDETECT_INTERVAL,
     PROP_FB_THRESHOLD,
+    PROP_TRACKING_WINDOW,
     PROP_MODEL,
     PROP_DWELL,
     PROP_MIN_POINTS,
@@ -64,6 +65,12 @@ void installProperties(GObjectClass *gobject_class)
             g_param_spec_double("fb-threshold", "Forward-backward threshold",
                                 "A track is kept when tracking it back lands within this many analysis pixels",
                                 0.01, 100.0, d.fb_threshold, kPlaying));
+    install(PROP_TRACKING_WINDOW,
+            g_param_spec_uint("tracking-window", "Tracking window",
+                              "Side of the Lucas-Kanade window in analysis pixels (odd; an even value is rounded "
+                              "up). Smaller is faster (19: about a quarter less tracking time), larger follows "
+                              "low-texture scenes better",
+                              7, 41, guint(d.tracking_window), kPlaying));
     install(PROP_MODEL, g_param_spec_enum("model", "Motion model", "Motion model fitted to the tracks",
                                           UAVSTABILIZE_TYPE_MODEL, int(d.model), kPlaying));
     install(PROP_DWELL, g_param_spec_uint("dwell", "Dwell",
@@ -124,6 +131,9 @@ bool setProperty(UavStabilizeSettings &settings, guint id, const GValue *value)
         break;
     case PROP_FB_THRESHOLD:
         c.fb_threshold = g_value_get_double(value);
+        break;
+    case PROP_TRACKING_WINDOW:
+        c.tracking_window = int(g_value_get_uint(value)) | 1;  // the window has a centre pixel
         break;
     case PROP_MODEL:
         c.model = uavstab::ModelChoice(g_value_get_enum(value));
@@ -186,6 +196,9 @@ bool getProperty(const UavStabilizeSettings &settings, guint id, GValue *value)
         break;
     case PROP_FB_THRESHOLD:
         g_value_set_double(value, c.fb_threshold);
+        break;
+    case PROP_TRACKING_WINDOW:
+        g_value_set_uint(value, guint(c.tracking_window));
         break;
     case PROP_MODEL:
         g_value_set_enum(value, int(c.model));

@@ -22,6 +22,8 @@ void StabilizerConfig::validate() const
     require(roi > 0.05 && roi <= 1.0, "roi must be in (0.05, 1]");
     require(redetect_interval >= 1, "redetect_interval must be >= 1");
     require(fb_threshold > 0.0, "fb_threshold must be > 0");
+    require(tracking_window >= 7 && tracking_window <= 41 && tracking_window % 2 == 1,
+            "tracking_window must be odd and in [7, 41]");
     require(dwell >= 1, "dwell must be >= 1");
     require(min_points >= 2, "min_points must be >= 2");
     require(crop >= 0.0 && crop <= 0.5, "crop must be in [0, 0.5]");

@@ -26,10 +26,10 @@ struct LkGeometry {
     int levels;
 };
 
-LkGeometry lkGeometry(cv::Size size)
+LkGeometry lkGeometry(cv::Size size, int max_window)
 {
     const int side = std::min(size.width, size.height);
-    int win = std::clamp(side / 4, 5, 21) | 1;
+    int win = std::clamp(side / 4, 5, max_window) | 1;
     int levels = 0;
     while (levels < kMaxPyramidLevel && (side >> (levels + 1)) >= 2 * win)
         ++levels;
@@ -75,10 +75,14 @@ void FeatureTracker::reset()
 
 void FeatureTracker::setConfig(const StabilizerConfig &config)
 {
-    const bool resample = config.analysis_width != impl_->config.analysis_width;
+    // A new analysis size or window needs pyramids built for it: start tracking afresh.
+    const bool rebuild = config.analysis_width != impl_->config.analysis_width ||
+                         config.tracking_window != impl_->config.tracking_window;
     impl_->config = config;
-    if (resample)
+    if (rebuild) {
         reset();
+        impl_->frame_width = impl_->frame_height = 0;  // recompute the geometry at the next frame
+    }
 }
 
 void FeatureTracker::Impl::detect(const std::vector<cv::Mat> &pyramid)
@@ -124,7 +128,7 @@ PointMatches FeatureTracker::track(const FrameView &frame)
         d.frame_width = frame.width;
         d.frame_height = frame.height;
         d.analysis = LumaExtractor::analysisSize(frame.width, frame.height, d.config.analysis_width);
-        d.lk = lkGeometry(d.analysis);
+        d.lk = lkGeometry(d.analysis, d.config.tracking_window);
     }
 
     const cv::Mat &luma = d.luma.extract(frame, d.config.analysis_width);

@@ -411,15 +411,20 @@ ELEMENT_TEST(short_buffer_is_an_error_not_a_crash)
 ELEMENT_TEST(properties_have_the_documented_defaults)
 {
     GstElement *element = makeStabilizer();
-    guint delay = 0, radius = 0, corners = 0, redetect = 0, dwell = 0, min_points = 0, width = 0, threads = 99;
+    guint delay = 0, radius = 0, corners = 0, redetect = 0, dwell = 0, min_points = 0, width = 0, threads = 99,
+          window = 0;
     gdouble roi = 0, crop = 0;
     gint smoother = -1, model = -1, border = -1;
     gboolean bypass = TRUE, post = TRUE;
     g_object_get(element, "delay", &delay, "smoothing-radius", &radius, "max-corners", &corners, "redetect-interval",
                  &redetect, "dwell", &dwell, "min-points", &min_points, "analysis-width", &width, "threads", &threads,
                  "roi", &roi, "crop", &crop, "smoother", &smoother, "model", &model, "border", &border, "bypass",
-                 &bypass, "post-messages", &post, nullptr);
+                 &bypass, "post-messages", &post, "tracking-window", &window, nullptr);
     fail_unless_equals_int(delay, 20);
+    fail_unless_equals_int(window, 21);
+    setProperties(element, "tracking-window=18");  // rounded up to odd: the window has a centre
+    g_object_get(element, "tracking-window", &window, nullptr);
+    fail_unless_equals_int(window, 19);
     fail_unless_equals_int(radius, 20);
     fail_unless_equals_int(corners, 50);
     fail_unless_equals_int(redetect, 5);

@@ -77,6 +77,61 @@ TEST(FeatureTracker, DownscaledAnalysisScalesMotionBackToFullResolution)
     }
 }
 
+TEST(FeatureTracker, AnyTrackingWindowFollowsTheFlight)
+{
+    // The window trades tracking time for robustness on low texture; on the textured
+    // flight every allowed size must still find the motion.
+    for (int window : {7, 15, 41}) {
+        synthetic::FlightOptions options;
+        options.frames = 20;
+        StabilizerConfig config;
+        config.tracking_window = window;
+        const Errors e = estimateFlight(options, config);
+        EXPECT_LT(e.translation, 0.3) << "window " << window;
+        EXPECT_LT(e.rotation_deg, 0.05) << "window " << window;
+        EXPECT_EQ(e.skipped, 0) << "window " << window;
+    }
+    StabilizerConfig config;
+    for (int bad : {5, 20, 43}) {
+        config.tracking_window = bad;
+        EXPECT_THROW(config.validate(), std::invalid_argument) << bad;
+    }
+}
+
+TEST(FeatureTracker, AnalysisWidthOrWindowChangedMidStreamKeepsMotionAtFullResolution)
+{
+    // The element lets both change while playing. The next frame must be analysed at the
+    // new size, with motion still scaled back to full-resolution pixels.
+    synthetic::FlightOptions options;
+    options.width = 1280;
+    options.height = 720;
+    options.frames = 30;
+    options.band_px = 6.0;
+    const synthetic::ShakyFlight flight(options);
+    StabilizerConfig config;
+    MotionEstimator estimator(config);
+    std::vector<double> after;
+    for (int i = 0; i < flight.frameCount(); ++i) {
+        if (i == 10) {
+            config.analysis_width = 320;
+            estimator.setConfig(config);
+        }
+        if (i == 20) {
+            config.tracking_window = 11;
+            estimator.setConfig(config);
+        }
+        const MotionEstimate e = estimator.estimate(flight.render(i).view());
+        if (i <= 10 || i == 20 || e.skipped)
+            continue;  // the frame after a change starts tracking afresh
+        const Similarity truth = flight.trueMotion(i);
+        after.push_back(std::hypot(e.motion.dx - truth.dx, e.motion.dy - truth.dy));
+    }
+    ASSERT_GE(after.size(), 15u);
+    // 320-wide analysis of 1280: an analysis pixel is 4 px here.
+    EXPECT_LT(median(after), 0.3 * 4);
+    EXPECT_LT(*std::max_element(after.begin(), after.end()), 3.0);
+}
+
 TEST(FeatureTracker, MovingObjectsDoNotPullTheEstimate)
 {
     synthetic::FlightOptions options;

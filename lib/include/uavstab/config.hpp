@@ -49,6 +49,11 @@ struct StabilizerConfig {
     // Forward-backward check: a track is kept when tracking it back lands within this
     // many analysis pixels of where it started.
     double fb_threshold = 1.0;
+    // Side of the Lucas-Kanade window in analysis pixels (odd, 7..41; small frames get a
+    // smaller one). Tracking time grows with its area: 19 instead of 21 takes about a
+    // quarter less, at a small cost on low-texture input (thermal), where big windows
+    // follow better; 21 is the quality default (see tests/bench/REPORT.md, issue 5).
+    int tracking_window = 21;
 
     ModelChoice model = ModelChoice::Hybrid;
     // Frames a hybrid model choice is kept before it is re-evaluated (paper: 20).
