@@ -600,12 +600,6 @@ bool handleCaps(GstUavStabilize *self, UavStabilizeState &s, EventPtr event)
         GST_WARNING_OBJECT(self, "unusable caps %" GST_PTR_FORMAT, caps);
         return false;
     }
-    if (GST_VIDEO_INFO_INTERLACE_MODE(&info) != GST_VIDEO_INTERLACE_MODE_PROGRESSIVE) {
-        GST_ELEMENT_ERROR(self, STREAM, FORMAT, ("Interlaced video is not supported"),
-                          ("interlace-mode %s: put a deinterlacer before uavstabilize",
-                           gst_video_interlace_mode_to_string(GST_VIDEO_INFO_INTERLACE_MODE(&info))));
-        return false;
-    }
     if (s.caps && gst_caps_is_equal(s.caps, caps))
         return queueEvent(self, s, std::move(event));
 
