@@ -50,7 +50,11 @@ Stabilizer::Stabilizer(const StabilizerConfig &config)
 
 Stabilizer::~Stabilizer()
 {
-    pool_.reset();  // runs every queued stripe to completion first
+    // Queued tasks call back into this object (pool_->submit from startWarp): let them all
+    // finish while pool_ is still set. unique_ptr::reset nulls the pointer before the old
+    // pool's destructor runs what is left, so resetting first would crash.
+    pool_->waitIdle();
+    pool_.reset();
 }
 
 void Stabilizer::setConfig(const StabilizerConfig &config)
@@ -330,8 +334,10 @@ void Stabilizer::reset()
     }
     estimator_.setConfig(config_);
     estimator_.reset();
-    if (pool_->size() != config_.resolvedThreads())
+    if (pool_->size() != config_.resolvedThreads()) {
+        pool_->waitIdle();  // no task may submit into the pool being replaced
         pool_ = std::make_unique<WorkerPool>(config_.resolvedThreads());
+    }
     trajectory_.clear();
     discontinuity_ = true;
     have_geometry_ = false;

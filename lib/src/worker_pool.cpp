@@ -28,19 +28,28 @@ void WorkerPool::submit(std::function<void()> task)
     wake_.notify_one();
 }
 
+void WorkerPool::waitIdle()
+{
+    std::unique_lock<std::mutex> lock(mutex_);
+    idle_.wait(lock, [this] { return tasks_.empty() && running_ == 0; });
+}
+
 void WorkerPool::run()
 {
+    std::unique_lock<std::mutex> lock(mutex_);
     for (;;) {
-        std::function<void()> task;
-        {
-            std::unique_lock<std::mutex> lock(mutex_);
-            wake_.wait(lock, [this] { return stopping_ || !tasks_.empty(); });
-            if (tasks_.empty())
-                return;  // stopping, and nothing left to run
-            task = std::move(tasks_.front());
-            tasks_.pop_front();
-        }
+        wake_.wait(lock, [this] { return stopping_ || !tasks_.empty(); });
+        if (tasks_.empty())
+            return;  // stopping, and nothing left to run
+        std::function<void()> task = std::move(tasks_.front());
+        tasks_.pop_front();
+        ++running_;
+        lock.unlock();
         task();
+        task = nullptr;  // whatever the task holds is released before it counts as done
+        lock.lock();
+        if (--running_ == 0 && tasks_.empty())
+            idle_.notify_all();
     }
 }
 

@@ -13,12 +13,16 @@ namespace uavstab {
 class WorkerPool {
 public:
     explicit WorkerPool(int threads);
-    // Runs every task already submitted, then joins.
+    // Runs every task already submitted, then joins. Tasks may still submit while it
+    // runs; owners whose tasks reach back into them call waitIdle() first.
     ~WorkerPool();
     WorkerPool(const WorkerPool &) = delete;
     WorkerPool &operator=(const WorkerPool &) = delete;
 
     void submit(std::function<void()> task);
+    // Returns once no task is queued or running: tasks submitted by running tasks are
+    // waited for too, since they are queued before their submitter finishes.
+    void waitIdle();
     int size() const { return int(threads_.size()); }
 
 private:
@@ -26,7 +30,9 @@ private:
 
     std::mutex mutex_;
     std::condition_variable wake_;
+    std::condition_variable idle_;
     std::deque<std::function<void()>> tasks_;
+    int running_ = 0;
     bool stopping_ = false;
     std::vector<std::thread> threads_;
 };

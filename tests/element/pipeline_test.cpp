@@ -121,6 +121,50 @@ ELEMENT_TEST(live_pipeline_latency_includes_the_delay)
     gst_object_unref(pipeline);
 }
 
+int teardownRuns()
+{
+    const char *value = g_getenv("UAVSTABILIZE_TEARDOWN_RUNS");
+    return value ? std::atoi(value) : 100;
+}
+
+// Issue 12's harness: appsrc pushes 10 good 320x240 I420 frames, then one buffer half the
+// size its caps say, and the pipeline is torn down at once, with warps still queued on
+// the workers (a single worker and delay 0, so they queue up). Before the fix this
+// crashed in Stabilizer::startWarp through a nulled pool about one run in six.
+ELEMENT_TEST(teardown_with_warps_in_flight_after_a_bad_buffer)
+{
+    GstCaps *caps = videoCaps("I420", 320, 240);
+    const GstVideoInfo info = videoInfo(caps);
+    const int runs = teardownRuns();
+    for (int run = 0; run < runs; ++run) {
+        GstElement *pipeline = launchPipeline("appsrc name=src format=time ! uavstabilize threads=1 delay=0 ! "
+                                              "appsink name=sink sync=false drop=true max-buffers=1");
+        GstElement *src = gst_bin_get_by_name(GST_BIN(pipeline), "src");
+        g_object_set(src, "caps", caps, nullptr);
+        fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);
+        for (int i = 0; i < 11; ++i) {
+            GstBuffer *buffer;
+            if (i < 10) {
+                buffer = makeFrame(info, i);
+            } else {
+                buffer = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&info) / 2, nullptr);
+                stampFrame(buffer, i);
+            }
+            GstFlowReturn ret = GST_FLOW_OK;
+            g_signal_emit_by_name(src, "push-buffer", buffer, &ret);
+            gst_buffer_unref(buffer);
+        }
+        gst_object_unref(src);
+        // Whatever the element said about the bad buffer, tear down now: a different
+        // moment each run, from "frames still queued in appsrc" to "error posted".
+        if (run % 3 != 0)
+            std::this_thread::sleep_for(std::chrono::milliseconds(run % 7));
+        fail_unless_equals_int(gst_element_set_state(pipeline, GST_STATE_NULL), GST_STATE_CHANGE_SUCCESS);
+        gst_object_unref(pipeline);
+    }
+    gst_caps_unref(caps);
+}
+
 int main(int argc, char **argv)
 {
     gst_check_init(&argc, &argv);
@@ -131,5 +175,6 @@ int main(int argc, char **argv)
     tcase_add_test(tc, playing_to_null_cycles_neither_deadlock_nor_leak);
     tcase_add_test(tc, pausing_keeps_every_frame);
     tcase_add_test(tc, live_pipeline_latency_includes_the_delay);
+    tcase_add_test(tc, teardown_with_warps_in_flight_after_a_bad_buffer);
     return runSuite(s) == 0 ? 0 : 1;
 }

@@ -74,9 +74,13 @@ FileCheck checkFile(const std::string &path)
     GError *error = nullptr;
     const std::string desc = "filesrc location=" + path + " ! qtdemux ! h264parse ! avdec_h264 ! appsink name=sink sync=false";
     GstElement *pipeline = gst_parse_launch(desc.c_str(), &error);
-    if (!pipeline) {
-        ADD_FAILURE() << error->message;
+    // A missing element (avdec_h264 without gstreamer1.0-libav) still gives a pipeline,
+    // with the error set, that would never reach EOS: fail at once instead of hanging.
+    if (!pipeline || error) {
+        ADD_FAILURE() << "cannot check the recording: " << (error ? error->message : "no pipeline");
         g_clear_error(&error);
+        if (pipeline)
+            gst_object_unref(pipeline);
         return check;
     }
     GstElement *sink = gst_bin_get_by_name(GST_BIN(pipeline), "sink");

@@ -1,8 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <cstring>
 #include <functional>
 #include <random>
+#include <thread>
 
 #include <opencv2/imgproc.hpp>
 
@@ -191,6 +194,52 @@ TEST(Stabilizer, ResetDropsHeldFramesAndRestarts)
     EXPECT_FALSE(s.tryPop().has_value());
     const auto ids = roundTrip(s, 3, [&](int i) { return test::noiseFrame(PixelFormat::I420, 64, 64, unsigned(i)); });
     EXPECT_EQ(ids, iota(3));
+}
+
+// Regression (issue 12): destroying a Stabilizer with warps still queued must let every
+// queued task run while the pool is still there. Before the fix ~Stabilizer nulled pool_
+// first and a queued startWarp called pool_->size() through it (SIGSEGV). The ready
+// callback holds the single worker on the first frame so that the rest are certainly
+// queued when the destructor starts.
+TEST(Stabilizer, DestroyedWithWarpsQueuedFinishesThemWithoutCrashing)
+{
+    const FrameBuffer frame = test::noiseFrame(PixelFormat::I420, 1920, 1080, 7);
+    for (int threads : {1, 2}) {
+        StabilizerConfig c = smallConfig(0);
+        c.threads = threads;
+        std::atomic<int> ready{0};
+        {
+            Stabilizer s(c);
+            s.setReadyCallback([&ready] {
+                if (ready.fetch_add(1) == 0)
+                    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+            });
+            for (int i = 0; i < 16; ++i)
+                s.push(BufferSlot::make(frame, i));
+        }  // destroyed without popping
+        EXPECT_EQ(ready.load(), 16) << threads << " threads: every queued frame was finished";
+    }
+}
+
+// Same for reset() with a changed thread count: the old pool must be idle before it goes.
+TEST(Stabilizer, ResetToAnotherThreadCountWithWarpsQueued)
+{
+    const FrameBuffer frame = test::noiseFrame(PixelFormat::I420, 640, 480, 3);
+    StabilizerConfig c = smallConfig(0);
+    c.threads = 1;
+    Stabilizer s(c);
+    std::atomic<int> ready{0};
+    s.setReadyCallback([&ready] {
+        if (ready.fetch_add(1) == 0)
+            std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    });
+    for (int i = 0; i < 8; ++i)
+        s.push(BufferSlot::make(frame, i));
+    c.threads = 2;
+    s.setConfig(c);
+    s.reset();
+    EXPECT_EQ(s.finalizedCount(), 0u);
+    EXPECT_EQ(roundTrip(s, 5, [&](int) { return frame; }), iota(5));
 }
 
 TEST(Stabilizer, BypassHandsFramesBackUntouchedWithTheSameDelay)
