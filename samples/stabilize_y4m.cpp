@@ -2,7 +2,7 @@
 // the smallest complete use of the library API (push frames, pop results in order).
 //
 //   uavstab-stabilize-y4m IN.y4m OUT.y4m [--side-by-side SBS.y4m] [--truth TRUTH.csv]
-//                         [--delay N] [--radius R] [--smoother box|gaussian] [--crop C]
+//                         [--delay N] [--radius R] [--planner optimal|gaussian|box] [--crop C]
 //
 // With --truth (as written by uavstab-render-flight) it also prints the true residual
 // jitter of the input and of the output.
@@ -78,8 +78,10 @@ int main(int argc, char **argv)
             config.delay = std::atoi(next().c_str());
         else if (a == "--radius")
             config.smoothing_radius = std::atoi(next().c_str());
-        else if (a == "--smoother")
-            config.smoother = next() == "gaussian" ? SmootherKind::Gaussian : SmootherKind::Box;
+        else if (a == "--planner") {
+            const std::string p = next();
+            config.planner = p == "gaussian" ? PlannerKind::Gaussian : p == "box" ? PlannerKind::Box : PlannerKind::Optimal;
+        }
         else if (a == "--crop")
             config.crop = std::atof(next().c_str());
         else if (in_path.empty())
@@ -88,7 +90,7 @@ int main(int argc, char **argv)
             out_path = a;
         else {
             std::cerr << "usage: uavstab-stabilize-y4m IN.y4m OUT.y4m [--side-by-side SBS.y4m] [--truth CSV]"
-                         " [--delay N] [--radius R] [--smoother box|gaussian] [--crop C]\n";
+                         " [--delay N] [--radius R] [--planner optimal|gaussian|box] [--crop C]\n";
             return 2;
         }
     }

@@ -27,6 +27,7 @@ void StabilizerConfig::validate() const
     require(dwell >= 1, "dwell must be >= 1");
     require(min_points >= 2, "min_points must be >= 2");
     require(crop >= 0.0 && crop <= 0.5, "crop must be in [0, 0.5]");
+    require(planner_smoothness >= 1.0 && planner_smoothness <= 1e7, "planner_smoothness must be in [1, 1e7]");
     require(analysis_width >= 16, "analysis_width must be >= 16");
     require(threads >= 0 && threads <= 64, "threads must be in [0, 64]");
 }
@@ -54,6 +55,18 @@ const char *toString(ModelChoice m)
 const char *toString(SmootherKind s)
 {
     return s == SmootherKind::Gaussian ? "gaussian" : "box";
+}
+
+const char *toString(PlannerKind p)
+{
+    switch (p) {
+    case PlannerKind::Gaussian:
+        return "gaussian";
+    case PlannerKind::Box:
+        return "box";
+    default:
+        return "optimal";
+    }
 }
 
 const char *toString(BorderMode b)

@@ -5,8 +5,6 @@
 #include <stdexcept>
 
 #include "uavstab/frame_warper.hpp"
-#include "uavstab/framing.hpp"
-#include "uavstab/trajectory_smoother.hpp"
 #include "worker_pool.hpp"
 
 namespace uavstab {
@@ -30,27 +28,36 @@ struct Stabilizer::Pending {
     FrameStats stats;
     Outcome outcome = Outcome::Warped;
     std::string error;          // written under Stabilizer::mutex_
-    // Settings captured when the frame was finalized.
-    SmootherKind smoother = SmootherKind::Box;
-    int radius = 0;
-    double crop = 0.0;
-    bool limit_to_crop = true;
-    BorderMode border = BorderMode::Black;
-    Similarity output_to_input;
     std::atomic<int> stripes_left{0};
     bool ready = false;         // under Stabilizer::mutex_
 };
+
+struct Stabilizer::PlanJob {
+    std::shared_ptr<Pending> pending;
+    std::shared_ptr<const StabilizerConfig> config;
+    PlanRequest request;
+};
+
+namespace {
+// A config change that leaves these alone keeps the planner (and the path it is on).
+bool samePlanner(const StabilizerConfig &a, const StabilizerConfig &b)
+{
+    return a.planner == b.planner && a.smoothing_radius == b.smoothing_radius && a.crop == b.crop &&
+           a.limit_to_crop == b.limit_to_crop && a.planner_smoothness == b.planner_smoothness;
+}
+} // namespace
 
 Stabilizer::Stabilizer(const StabilizerConfig &config)
     : config_(config), estimator_(config)
 {
     config_.validate();
+    frame_config_ = std::make_shared<const StabilizerConfig>(config_);
     pool_ = std::make_unique<WorkerPool>(config_.resolvedThreads());
 }
 
 Stabilizer::~Stabilizer()
 {
-    // Queued tasks call back into this object (pool_->submit from startWarp): let them all
+    // Queued tasks call back into this object (pool_->submit from planning): let them all
     // finish while pool_ is still set. unique_ptr::reset nulls the pointer before the old
     // pool's destructor runs what is left, so resetting first would crash.
     pool_->waitIdle();
@@ -80,6 +87,7 @@ void Stabilizer::applyConfig()
     config_.threads = threads;  // the pool is rebuilt only in reset()
     next_config_.reset();
     estimator_.setConfig(config_);
+    frame_config_ = std::make_shared<const StabilizerConfig>(config_);
 }
 
 void Stabilizer::setReadyCallback(std::function<void()> callback)
@@ -172,11 +180,6 @@ void Stabilizer::finalizeOldest()
     auto pending = std::make_shared<Pending>();
     pending->stats = held.stats;
     pending->input = held.slot->input();
-    pending->smoother = config_.smoother;
-    pending->radius = config_.smoothing_radius;
-    pending->crop = config_.crop;
-    pending->limit_to_crop = config_.limit_to_crop;
-    pending->border = config_.border;
     if (config_.bypass) {
         pending->outcome = Outcome::Bypassed;
     } else {
@@ -197,39 +200,78 @@ void Stabilizer::finalizeOldest()
     }
     pending->slot = std::move(held.slot);
 
-    std::size_t centre = 0;
-    std::vector<Similarity> window = trajectory_.window(held.stats.index, config_.smoothing_radius, &centre);
-    // Poses older than the next held frame's window are never needed again.
-    const std::int64_t keep_from = held_.empty() ? trajectory_.next() : held_.front().stats.index;
-    trajectory_.dropBefore(keep_from - config_.smoothing_radius);
+    // Every frame is planned, bypassed or not, so that the path goes on when bypass ends.
+    PlanJob job;
+    job.pending = pending;
+    job.config = frame_config_;
+    job.request.index = held.stats.index;
+    job.request.segment_start = held.stats.segment_start;
+    job.request.lookahead = trajectory_.lookahead(held.stats.index, config_.delay);
+    job.request.width = pending->input.width;
+    job.request.height = pending->input.height;
+    // The planner keeps what it needs of the past; the path is needed from the oldest
+    // held frame on.
+    trajectory_.dropBefore(held_.empty() ? trajectory_.next() : held_.front().stats.index);
 
+    bool start;
     {
         std::lock_guard<std::mutex> lock(mutex_);
         finalized_.push_back(pending);
+        plan_queue_.push_back(std::move(job));
+        start = !planning_;
+        planning_ = true;
     }
-    pool_->submit([this, pending, window = std::move(window), centre]() mutable {
-        startWarp(pending, std::move(window), centre);
-    });
+    if (start)
+        pool_->submit([this] { planNext(); });
 }
 
-void Stabilizer::startWarp(const std::shared_ptr<Pending> &pending, std::vector<Similarity> window,
-                           std::size_t centre)
+// A pool task: plans the oldest queued frame and starts its warp, then queues itself
+// again behind that warp's stripes while frames wait. So planning is serialized and in
+// frame order, and never holds a worker while warps wait.
+void Stabilizer::planNext()
 {
-    // Motion compensation: smooth the path around this frame, derive the correction.
+    PlanJob job;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (plan_queue_.empty()) {
+            planning_ = false;
+            return;
+        }
+        job = std::move(plan_queue_.front());
+        plan_queue_.pop_front();
+    }
+    planAndWarp(job);
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (plan_queue_.empty()) {
+            planning_ = false;
+            return;
+        }
+    }
+    pool_->submit([this] { planNext(); });
+}
+
+void Stabilizer::planAndWarp(PlanJob &job)
+{
+    const std::shared_ptr<Pending> &pending = job.pending;
     FrameStats &stats = pending->stats;
     try {
-        stats.smoothed = makeSmoother(pending->smoother, pending->radius)->smooth(window, centre);
-        const Similarity correction = stats.smoothed.inverse() * stats.trajectory;
-        const Framing framing = frameOutput(correction, pending->input.width, pending->input.height,
-                                            pending->crop, pending->limit_to_crop);
-        stats.correction = framing.applied;
-        stats.zoom = framing.zoom;
-        stats.correction_fraction = framing.fraction;
-        stats.output_to_input = framing.output_to_input;
-        pending->output_to_input = framing.output_to_input;
+        if (!planner_ || !samePlanner(*planner_config_, *job.config))
+            planner_ = makePathPlanner(*job.config);
+        planner_config_ = job.config;
+        const PlannedFrame planned = planner_->plan(job.request);
+        stats.smoothed = planned.smoothed;
+        stats.correction = planned.correction;
+        stats.zoom = planned.zoom;
+        stats.correction_fraction = planned.correction_fraction;
+        stats.output_to_input = planned.output_to_input;
     } catch (const std::exception &e) {
-        pending->outcome = Outcome::Failed;
-        pending->error = std::string("smoothing failed: ") + e.what();
+        planner_.reset();  // start afresh with the next frame
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (pending->outcome == Outcome::Warped) {
+            pending->outcome = Outcome::Failed;
+            pending->error = std::string("planning the output path failed: ") + e.what();
+        }
     }
 
     if (pending->outcome != Outcome::Warped) {
@@ -240,6 +282,7 @@ void Stabilizer::startWarp(const std::shared_ptr<Pending> &pending, std::vector<
 
     // Image composition, split into row stripes so that all workers share one frame and
     // the frame is ready as soon as possible.
+    const BorderMode border = job.config->border;
     const int height = pending->input.height;
     const int stripes = height < 2 * kMinStripeRows ? 1 : std::min(pool_->size(), height / kMinStripeRows);
     int rows = (height + stripes - 1) / stripes;
@@ -248,15 +291,15 @@ void Stabilizer::startWarp(const std::shared_ptr<Pending> &pending, std::vector<
     pending->stripes_left = count;
     for (int s = 1; s < count; ++s) {
         const int begin = s * rows, end = std::min(height, begin + rows);
-        pool_->submit([this, pending, begin, end] { runStripe(pending, begin, end); });
+        pool_->submit([this, pending, border, begin, end] { runStripe(pending, border, begin, end); });
     }
-    runStripe(pending, 0, std::min(height, rows));
+    runStripe(pending, border, 0, std::min(height, rows));
 }
 
-void Stabilizer::runStripe(const std::shared_ptr<Pending> &pending, int begin, int end)
+void Stabilizer::runStripe(const std::shared_ptr<Pending> &pending, BorderMode border, int begin, int end)
 {
     try {
-        FrameWarper(pending->border).warpRows(pending->input, pending->output, pending->output_to_input, begin, end);
+        FrameWarper(border).warpRows(pending->input, pending->output, pending->stats.output_to_input, begin, end);
     } catch (const std::exception &e) {
         std::lock_guard<std::mutex> lock(mutex_);
         pending->outcome = Outcome::Failed;
@@ -332,12 +375,15 @@ void Stabilizer::reset()
             next_config_.reset();
         }
     }
+    // Every frame is ready, but the planning task may still be on its way out.
+    pool_->waitIdle();
+    planner_.reset();
+    planner_config_.reset();
+    frame_config_ = std::make_shared<const StabilizerConfig>(config_);
     estimator_.setConfig(config_);
     estimator_.reset();
-    if (pool_->size() != config_.resolvedThreads()) {
-        pool_->waitIdle();  // no task may submit into the pool being replaced
+    if (pool_->size() != config_.resolvedThreads())
         pool_ = std::make_unique<WorkerPool>(config_.resolvedThreads());
-    }
     trajectory_.clear();
     discontinuity_ = true;
     have_geometry_ = false;

@@ -43,6 +43,19 @@ std::vector<Similarity> Trajectory::window(std::int64_t index, int radius, std::
     return poses;
 }
 
+std::vector<Similarity> Trajectory::lookahead(std::int64_t index, int count) const
+{
+    if (index < first_ || index >= next())
+        throw std::out_of_range("Trajectory::lookahead: frame not held");
+    const std::int64_t segment = entries_[std::size_t(index - first_)].segment;
+    const std::int64_t last = std::min(next() - 1, index + std::max(0, count));
+    std::vector<Similarity> poses;
+    poses.reserve(std::size_t(last - index + 1));
+    for (std::int64_t i = index; i <= last && entries_[std::size_t(i - first_)].segment == segment; ++i)
+        poses.push_back(entries_[std::size_t(i - first_)].pose);
+    return poses;
+}
+
 void Trajectory::dropBefore(std::int64_t index)
 {
     // The newest pose is always kept: the next frame's pose is composed from it.

@@ -98,7 +98,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     StabilizerConfig config;
     config.delay = b.range(0, 12);
     config.smoothing_radius = b.range(0, 12);
-    config.smoother = b.next() & 1 ? SmootherKind::Gaussian : SmootherKind::Box;
+    config.planner = PlannerKind(b.next() % 3);
     config.max_corners = b.range(4, 80);
     config.model = ModelChoice(b.range(0, 2));
     config.dwell = b.range(1, 30);

@@ -18,6 +18,12 @@ enum class SmootherKind {
     Gaussian,  // Gaussian-weighted average over the same window, sigma = radius / 2
 };
 
+enum class PlannerKind {
+    Optimal,   // constrained receding-horizon optimum over the look-ahead (optimal_path_planner.hpp)
+    Gaussian,  // Gaussian window over the path, then each frame clamped to the crop
+    Box,       // paper: moving average of the path, then each frame clamped to the crop
+};
+
 enum class BorderMode {
     Black,      // uncovered output pixels are black
     Replicate,  // uncovered output pixels repeat the nearest edge pixel
@@ -37,6 +43,13 @@ struct StabilizerConfig {
     // (ITF +2.9 vs +2.2 dB), at the same zoom and latency.
     int smoothing_radius = 20;
     SmootherKind smoother = SmootherKind::Gaussian;
+
+    // How the output path is planned from the camera path. The window planners use
+    // smoothing_radius (and `smoother` is ignored: kept until the parameter table lands).
+    PlannerKind planner = PlannerKind::Optimal;
+    // Optimal planner: weight of the path's third differences (jerk) against following
+    // the camera; larger is smoother and follows manoeuvres later.
+    double planner_smoothness = 30000.0;
 
     // Shi-Tomasi corners tracked per frame (paper: 50; at most 200).
     int max_corners = 50;
@@ -89,5 +102,6 @@ struct StabilizerConfig {
 const char *toString(ModelChoice m);
 const char *toString(SmootherKind s);
 const char *toString(BorderMode b);
+const char *toString(PlannerKind p);
 
 } // namespace uavstab

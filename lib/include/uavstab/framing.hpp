@@ -26,4 +26,21 @@ bool coversFrame(const Similarity &output_to_input, int width, int height);
 
 Framing frameOutput(const Similarity &correction, int width, int height, double crop, bool limit_to_crop);
 
+// How far the crop window may move inside the frame. The window is the output frame's
+// footprint in the input frame: half size (hx, hy) / zoom about the centre, where
+// hx = (width - 1) / 2. Placed by a displacement D (output pose relative to the camera's:
+// scale s, angle a, translation t in the input frame's axes), it stays inside the frame
+// when |t.x| <= room.x and |t.y| <= room.y.
+struct CropWindow {
+    double hx = 0, hy = 0;  // the frame's half size
+    double wx = 0, wy = 0;  // the window's half size
+    CropWindow(int width, int height, double zoom);
+    // Translation room left once the window is rotated by `angle` and scaled by `scale`
+    // (negative when even a centred window does not fit).
+    Point2 translationRoom(double angle, double scale) const;
+    // Largest |angle| that leaves at least `reserve` (a share of the unrotated window's
+    // translation room, per axis) for translation at this scale; 0 when none.
+    double angleRoom(double scale, double reserve) const;
+};
+
 } // namespace uavstab

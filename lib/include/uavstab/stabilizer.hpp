@@ -1,9 +1,10 @@
 // The online stabilizer: frames are pushed in, stabilized frames come back in input order.
 //
 //   push(slot) -> motion estimation (caller's thread) -> delay buffer of `delay` frames
-//   -> once frame i + delay is estimated (or on flush()) frame i's correction is final:
-//      its output is acquired (caller's thread), then a worker smooths the path and
-//      warps the frame (in stripes across the pool)
+//   -> once frame i + delay is estimated (or on flush()) frame i is final: its output is
+//      acquired (caller's thread) and it is queued for planning
+//   -> a worker plans the output path for it (path_planner.hpp; one frame after another,
+//      never two at once), then the workers warp it in stripes
 //   -> tryPop()/waitPop() hand frames back in input order, with their slots.
 //
 // The stabilizer never pulls frames and never allocates output frames: the caller's
@@ -25,6 +26,7 @@
 #include "uavstab/frame_stats.hpp"
 #include "uavstab/frame_view.hpp"
 #include "uavstab/motion_estimator.hpp"
+#include "uavstab/path_planner.hpp"
 #include "uavstab/trajectory.hpp"
 
 namespace uavstab {
@@ -103,10 +105,12 @@ public:
 private:
     struct Held;
     struct Pending;
+    struct PlanJob;
 
     void finalizeOldest();
-    void startWarp(const std::shared_ptr<Pending> &pending, std::vector<Similarity> window, std::size_t centre);
-    void runStripe(const std::shared_ptr<Pending> &pending, int begin, int end);
+    void planNext();
+    void planAndWarp(PlanJob &job);
+    void runStripe(const std::shared_ptr<Pending> &pending, BorderMode border, int begin, int end);
     void completeStripe(const std::shared_ptr<Pending> &pending);
     StabilizedFrame take(std::unique_lock<std::mutex> &lock);
     void waitForAllFinalized(std::unique_lock<std::mutex> &lock);
@@ -114,6 +118,9 @@ private:
 
     // Control-thread state.
     StabilizerConfig config_;
+    // The config frames are finalized under, shared by their plan jobs: the planning task
+    // sees each setting change in frame order, with no per-frame copy.
+    std::shared_ptr<const StabilizerConfig> frame_config_;
     MotionEstimator estimator_;
     Trajectory trajectory_;
     std::deque<Held> held_;
@@ -125,8 +132,15 @@ private:
     mutable std::mutex mutex_;
     std::condition_variable ready_;
     std::deque<std::shared_ptr<Pending>> finalized_;
+    std::deque<PlanJob> plan_queue_;
+    bool planning_ = false;  // a planNext task is queued or running
     std::function<void()> ready_callback_;
     std::optional<StabilizerConfig> next_config_;
+
+    // The planning task's own (one at a time, in frame order; reset() touches them only
+    // with the pool idle).
+    std::unique_ptr<PathPlanner> planner_;
+    std::shared_ptr<const StabilizerConfig> planner_config_;
 
     std::unique_ptr<WorkerPool> pool_;  // last: destroyed (joined) first
 };

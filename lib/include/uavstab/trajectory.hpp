@@ -24,6 +24,10 @@ public:
     // *centre receives index's position in the result.
     std::vector<Similarity> window(std::int64_t index, int radius, std::size_t *centre) const;
 
+    // Poses of frames index .. index+count that exist and share index's segment (at least
+    // index's own).
+    std::vector<Similarity> lookahead(std::int64_t index, int count) const;
+
     // Forgets frames before `index` (they will never be in a window again); the newest
     // frame is kept so that the path goes on.
     void dropBefore(std::int64_t index);

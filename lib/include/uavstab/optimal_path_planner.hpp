@@ -1,0 +1,72 @@
+// The default planner: for every frame it solves for the output path over the whole
+// look-ahead and commits the first frame (a receding horizon, as in model-predictive
+// control), in two stages per pose parameter (x, y, angle, log scale):
+//
+// 1. Where the camera means to go. A fixed-lag smoother of the camera path c over the
+//    horizon: minimise  sum_j (r_j - c_j)^2 + smoothness * sum_j rho(D3 r_j),  with D3 the
+//    third difference running on from the frames already output, so the path continues
+//    without a kink. rho is quadratic for small jerk and linear for large (Huber, solved by
+//    a few reweighted least-squares rounds), so that a manoeuvre's start and stop (a few
+//    large jerks) are kept while shake (many small ones) is smoothed away: piecewise
+//    constant-acceleration paths, which is what pilots fly, pass unbent. (Grundmann et
+//    al., CVPR 2011, use L1 norms for the same reason.)
+// 2. Where the crop window can go. The smallest and smoothest change d to r that keeps
+//    every known frame's crop window inside that frame:  minimise  sum_j d_j^2 +
+//    stiffness * sum_j (d_j - d_j-1)^2  subject to the window of frame j inside frame j.
+//    d is zero wherever nothing binds; where the look-ahead shows a frame that needs it,
+//    the path starts to give way before that frame instead of jumping at it (which is what
+//    the window planners' per-frame clamp does). Scale is fitted first, then the angle with
+//    a reserve kept for translation, then the translation with what the rotation left.
+//
+// The horizon is the known look-ahead plus `extension` frames of the camera path
+// extrapolated along a line fitted to its last frames, so the plan ends heading where the
+// camera heads: no lag on a steady pan even at delay 0.
+//
+// Solver: each stage is a quadratic program with bounds only and a banded matrix, solved
+// exactly by a small active-set method (box_qp.hpp) in microseconds, deterministically.
+// An LP/QP package (CLP, GLPK, OSQP) would add a dependency and cost more than the whole
+// frame's estimation for these 1-60 variables; an exact L1 objective would need one.
+#pragma once
+
+#include <array>
+#include <deque>
+
+#include "uavstab/path_planner.hpp"
+
+namespace uavstab {
+
+class OptimalPathPlanner : public PathPlanner {
+public:
+    struct Settings {
+        double crop = 0.08;            // share of width and height hidden by the zoom
+        // Stage 2 on: no border ever shows. Off (limit-to-crop=false): the output follows
+        // stage 1 and borders may show.
+        bool keep_inside = true;
+        double smoothness = 30000.0;   // stage 1: weight of the jerk penalty
+        // Stage 1: jerk (px per frame^3) above which the penalty turns linear, as a share
+        // of the frame's diagonal; and the reweighting rounds that approximate it.
+        double jerk_threshold = 2e-6;
+        int reweighting_rounds = 3;
+        double stiffness = 1.0;        // stage 2: how far a change spreads to its neighbours
+        // Share of the crop margin kept for translation when the angle is fitted.
+        double translation_reserve = 0.5;
+        // Share of the crop zoom's log that a scale difference may use.
+        double scale_share = 0.25;
+        int extension = 20;            // extrapolated frames after the look-ahead
+        int prediction_frames = 20;    // frames the extrapolation is fitted to
+    };
+    static constexpr int kHistory = 3;  // frames the differences run on from
+
+    explicit OptimalPathPlanner(const Settings &settings);
+    PlannedFrame plan(const PlanRequest &request) override;
+
+private:
+    using Params = std::array<double, 4>;  // x, y, angle, log scale
+
+    Settings settings_;
+    std::deque<Params> past_reference_;  // stage 1's committed values, newest last
+    std::deque<Params> past_camera_;     // newest last
+    Params past_change_{};               // stage 2's committed change
+};
+
+} // namespace uavstab

@@ -1,0 +1,27 @@
+#include "uavstab/path_planner.hpp"
+
+#include "uavstab/optimal_path_planner.hpp"
+#include "uavstab/window_path_planner.hpp"
+
+namespace uavstab {
+
+std::unique_ptr<PathPlanner> makePathPlanner(const StabilizerConfig &config)
+{
+    switch (config.planner) {
+    case PlannerKind::Gaussian:
+        return std::make_unique<WindowPathPlanner>(SmootherKind::Gaussian, config.smoothing_radius, config.crop,
+                                                   config.limit_to_crop);
+    case PlannerKind::Box:
+        return std::make_unique<WindowPathPlanner>(SmootherKind::Box, config.smoothing_radius, config.crop,
+                                                   config.limit_to_crop);
+    case PlannerKind::Optimal:
+        break;
+    }
+    OptimalPathPlanner::Settings settings;
+    settings.crop = config.crop;
+    settings.keep_inside = config.limit_to_crop;
+    settings.smoothness = config.planner_smoothness;
+    return std::make_unique<OptimalPathPlanner>(settings);
+}
+
+} // namespace uavstab

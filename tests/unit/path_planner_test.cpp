@@ -1,0 +1,285 @@
+// The camera-path planners alone: fed camera paths directly (no frames), so every
+// property is checked exactly: coverage, no lag on a pan, stillness, causality,
+// restarts, determinism; and the solver underneath.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "box_qp.hpp"
+#include "uavstab/framing.hpp"
+#include "uavstab/optimal_path_planner.hpp"
+#include "uavstab/path_planner.hpp"
+#include "uavstab/window_path_planner.hpp"
+
+using namespace uavstab;
+
+namespace {
+
+constexpr int kWidth = 640, kHeight = 360;
+
+// Plans a whole path with a given delay, as the stabilizer would: frame i sees the poses
+// of frames i .. i + delay that exist (segment starts where `starts` says).
+std::vector<PlannedFrame> planPath(PathPlanner &planner, const std::vector<Similarity> &path, int delay,
+                                   const std::vector<bool> &starts = {}, int width = kWidth, int height = kHeight)
+{
+    std::vector<PlannedFrame> out;
+    for (std::size_t i = 0; i < path.size(); ++i) {
+        PlanRequest r;
+        r.index = std::int64_t(i);
+        r.segment_start = i == 0 || (i < starts.size() && starts[i]);
+        for (std::size_t j = i; j < path.size() && j <= i + std::size_t(delay); ++j) {
+            if (j > i && j < starts.size() && starts[j])
+                break;
+            r.lookahead.push_back(path[j]);
+        }
+        r.width = width;
+        r.height = height;
+        out.push_back(planner.plan(r));
+    }
+    return out;
+}
+
+std::unique_ptr<PathPlanner> optimalPlanner()
+{
+    StabilizerConfig config;
+    return makePathPlanner(config);
+}
+
+// A shaky hover: small random drift plus band-limited shake in every parameter.
+std::vector<Similarity> shakyPath(std::uint32_t seed, int n, double shake_px, double shake_deg, double shake_scale)
+{
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> phase(0, 6.283), freq(2.0, 8.0);
+    std::normal_distribution<double> gauss(0, 1);
+    std::vector<double> f(8), ph(8);
+    for (int k = 0; k < 8; ++k) {
+        f[std::size_t(k)] = freq(rng);
+        ph[std::size_t(k)] = phase(rng);
+    }
+    std::vector<Similarity> path;
+    for (int i = 0; i < n; ++i) {
+        const double t = i / 30.0;
+        double w = 0;
+        for (int k = 0; k < 8; ++k)
+            w += std::sin(6.283 * f[std::size_t(k)] * t + ph[std::size_t(k)]) / 2.0;
+        const double u = std::sin(6.283 * f[1] * t * 0.9 + ph[3]) + 0.3 * gauss(rng);
+        path.push_back({0.8 * i + shake_px * w, -0.3 * i + shake_px * u, (shake_deg * 0.01745) * std::sin(3.1 * t + ph[2]),
+                        std::exp(shake_scale * std::sin(4.3 * t + ph[4]))});
+    }
+    return path;
+}
+
+} // namespace
+
+TEST(BandedBoxQp, SolutionsMeetTheOptimalityConditions)
+{
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (int trial = 0; trial < 500; ++trial) {
+        const std::size_t n = 1 + std::size_t(rng() % 40);
+        BandedBoxQp qp(n);
+        // Q = D'D + I with a random banded D: symmetric positive definite, bandwidth 3.
+        std::vector<std::vector<double>> q(n, std::vector<double>(n, 0.0));
+        for (std::size_t r = 0; r < n; ++r) {
+            double row[4];
+            for (double &v : row)
+                v = u(rng);
+            for (std::size_t a = 0; a < 4 && r + a < n; ++a)
+                for (std::size_t b = 0; b < 4 && r + b < n; ++b)
+                    q[r + a][r + b] += row[a] * row[b];
+            q[r][r] += 0.1;
+        }
+        for (std::size_t i = 0; i < n; ++i)
+            for (std::size_t j = i; j < n && j <= i + 3; ++j)
+                qp.addQ(j, i, q[i][j]);
+        std::vector<double> g(n), lo(n), hi(n);
+        for (std::size_t i = 0; i < n; ++i) {
+            g[i] = 3 * u(rng);
+            qp.addG(i, g[i]);
+            lo[i] = u(rng);
+            hi[i] = lo[i] + (trial % 3 == 0 ? 0.0 : std::abs(u(rng)));
+            if (trial % 5 == 1)
+                hi[i] = lo[i] + 10;
+            qp.setBounds(i, lo[i], hi[i]);
+        }
+        const auto result = qp.solve();
+        ASSERT_TRUE(result.optimal) << "trial " << trial;
+        for (std::size_t i = 0; i < n; ++i) {
+            const double x = result.x[i];
+            ASSERT_GE(x, lo[i]);
+            ASSERT_LE(x, hi[i]);
+            double gradient = g[i];
+            for (std::size_t j = 0; j < n; ++j)
+                gradient += q[i][j] * result.x[j];
+            const double tol = 1e-7;
+            if (x > lo[i] + 1e-9 && x < hi[i] - 1e-9)
+                EXPECT_NEAR(gradient, 0.0, tol) << "free variable " << i << " of trial " << trial;
+            else if (x <= lo[i] + 1e-9 && hi[i] > lo[i])
+                EXPECT_GE(gradient, -tol) << "variable " << i << " at its lower bound, trial " << trial;
+            else if (hi[i] > lo[i])
+                EXPECT_LE(gradient, tol) << "variable " << i << " at its upper bound, trial " << trial;
+        }
+    }
+}
+
+TEST(CropWindow, AngleRoomLeavesTheReserveAndNoMore)
+{
+    for (double zoom : {1.02, 1.087, 1.25}) {
+        const CropWindow w(kWidth, kHeight, zoom);
+        for (double reserve : {0.0, 0.5, 0.9}) {
+            const double a = w.angleRoom(1.0, reserve);
+            ASSERT_GT(a, 0.0);
+            const Point2 room = w.translationRoom(a, 1.0);
+            const double keep_x = reserve * (w.hx - w.wx), keep_y = reserve * (w.hy - w.wy);
+            EXPECT_GE(room.x, keep_x - 1e-9);
+            EXPECT_GE(room.y, keep_y - 1e-9);
+            // Slightly more rotation eats into the reserve.
+            const Point2 more = w.translationRoom(a * 1.01, 1.0);
+            EXPECT_TRUE(more.x < keep_x || more.y < keep_y) << "zoom " << zoom << " reserve " << reserve;
+        }
+    }
+}
+
+TEST(PathPlanner, EveryPlannerKeepsTheCropWindowInsideWithRotationAndScale)
+{
+    for (PlannerKind kind : {PlannerKind::Optimal, PlannerKind::Gaussian, PlannerKind::Box}) {
+        for (int delay : {0, 3, 10, 20}) {
+            for (std::uint32_t seed = 1; seed <= 4; ++seed) {
+                StabilizerConfig config;
+                config.planner = kind;
+                config.delay = delay;
+                config.crop = seed % 2 ? 0.08 : 0.15;
+                auto planner = makePathPlanner(config);
+                // Violent: shake bigger than the margin, rotation, zoom; the crop binds often.
+                const auto path = shakyPath(seed, 200, 25.0, 3.0, 0.05);
+                const auto planned = planPath(*planner, path, delay);
+                for (std::size_t i = 0; i < planned.size(); ++i)
+                    ASSERT_TRUE(coversFrame(planned[i].output_to_input, kWidth, kHeight))
+                        << toString(kind) << " delay " << delay << " seed " << seed << " frame " << i;
+            }
+        }
+    }
+}
+
+TEST(PathPlanner, OptimalPlannerNeedsNoEmergencyShrinking)
+{
+    // The constraints are part of the plan: the per-frame fallback (shrinking the
+    // correction) must not be what keeps the output covered.
+    for (int delay : {0, 5, 20}) {
+        auto planner = optimalPlanner();
+        const auto planned = planPath(*planner, shakyPath(7, 300, 25.0, 2.0, 0.03), delay);
+        for (const auto &p : planned)
+            ASSERT_GT(p.correction_fraction, 0.999) << "delay " << delay;
+    }
+}
+
+TEST(PathPlanner, ConstantVelocityPanIsFollowedWithoutLag)
+{
+    for (int delay : {0, 5, 20}) {
+        auto planner = optimalPlanner();
+        std::vector<Similarity> path;
+        for (int i = 0; i < 150; ++i)
+            path.push_back({4.0 * i, -1.5 * i, 0.001 * i, 1.0});
+        const auto planned = planPath(*planner, path, delay);
+        for (std::size_t i = 60; i < 120; ++i) {
+            EXPECT_NEAR(planned[i].smoothed.dx, path[i].dx, 0.01) << "delay " << delay << " frame " << i;
+            EXPECT_NEAR(planned[i].smoothed.dy, path[i].dy, 0.01) << "delay " << delay << " frame " << i;
+            EXPECT_NEAR(planned[i].smoothed.angle, path[i].angle, 1e-5) << "delay " << delay << " frame " << i;
+        }
+    }
+}
+
+TEST(PathPlanner, AShakyHoverComesOutNearlyStill)
+{
+    // Shake well inside the margin (640x360, crop 8 %: 25 x 14 px a side).
+    for (int delay : {0, 5, 20}) {
+        auto planner = optimalPlanner();
+        std::vector<Similarity> path;
+        for (int i = 0; i < 200; ++i)
+            path.push_back({3.0 * std::sin(2 * 3.14159 * 3.0 * i / 30.0), 2.5 * std::sin(2 * 3.14159 * 5.3 * i / 30.0 + 1),
+                            0.0, 1.0});
+        const auto planned = planPath(*planner, path, delay);
+        double camera = 0, output = 0;
+        for (std::size_t i = 41; i < planned.size(); ++i) {
+            camera += std::hypot(path[i].dx - path[i - 1].dx, path[i].dy - path[i - 1].dy);
+            output += std::hypot(planned[i].smoothed.dx - planned[i - 1].smoothed.dx,
+                                 planned[i].smoothed.dy - planned[i - 1].smoothed.dy);
+        }
+        std::printf("delay %d: the output moves %.1f %% as much as the camera\n", delay, 100 * output / camera);
+        EXPECT_LT(output, (delay == 0 ? 0.06 : delay == 5 ? 0.04 : 0.01) * camera) << "delay " << delay;
+    }
+}
+
+TEST(PathPlanner, DelayZeroUsesNoFutureFrame)
+{
+    // Two paths that agree up to frame 60 and then part: at delay 0 every frame up to 60
+    // must be planned identically; at delay 10, frames up to 50.
+    const auto a = shakyPath(3, 120, 6.0, 0.5, 0.0);
+    auto b = a;
+    for (std::size_t i = 61; i < b.size(); ++i)
+        b[i].dx += 40.0 + i;
+    for (int delay : {0, 10}) {
+        auto pa = optimalPlanner(), pb = optimalPlanner();
+        const auto oa = planPath(*pa, a, delay), ob = planPath(*pb, b, delay);
+        for (std::size_t i = 0; i + std::size_t(delay) <= 60; ++i)
+            ASSERT_EQ(oa[i].smoothed.dx, ob[i].smoothed.dx) << "delay " << delay << " frame " << i;
+        bool differs = false;
+        for (std::size_t i = 61; i < oa.size(); ++i)
+            differs = differs || oa[i].smoothed.dx != ob[i].smoothed.dx;
+        EXPECT_TRUE(differs);
+    }
+}
+
+TEST(PathPlanner, ADiscontinuityRestartsThePath)
+{
+    // After a segment start the planner behaves exactly like a new one.
+    const auto first = shakyPath(11, 80, 8.0, 1.0, 0.01), second = shakyPath(12, 80, 8.0, 1.0, 0.01);
+    std::vector<Similarity> joined = first;
+    joined.insert(joined.end(), second.begin(), second.end());
+    std::vector<bool> starts(joined.size(), false);
+    starts[80] = true;
+    for (PlannerKind kind : {PlannerKind::Optimal, PlannerKind::Gaussian}) {
+        StabilizerConfig config;
+        config.planner = kind;
+        auto continuing = makePathPlanner(config), fresh = makePathPlanner(config);
+        const auto all = planPath(*continuing, joined, 20, starts);
+        const auto alone = planPath(*fresh, second, 20);
+        for (std::size_t i = 0; i < second.size(); ++i) {
+            ASSERT_EQ(all[80 + i].smoothed.dx, alone[i].smoothed.dx) << toString(kind) << " frame " << i;
+            ASSERT_EQ(all[80 + i].smoothed.angle, alone[i].smoothed.angle) << toString(kind) << " frame " << i;
+        }
+    }
+}
+
+TEST(PathPlanner, SameInputSameOutput)
+{
+    const auto path = shakyPath(21, 150, 20.0, 2.0, 0.04);
+    auto p1 = optimalPlanner(), p2 = optimalPlanner();
+    const auto o1 = planPath(*p1, path, 7), o2 = planPath(*p2, path, 7);
+    for (std::size_t i = 0; i < o1.size(); ++i) {
+        ASSERT_EQ(o1[i].output_to_input.dx, o2[i].output_to_input.dx);
+        ASSERT_EQ(o1[i].output_to_input.dy, o2[i].output_to_input.dy);
+        ASSERT_EQ(o1[i].output_to_input.angle, o2[i].output_to_input.angle);
+        ASSERT_EQ(o1[i].output_to_input.scale, o2[i].output_to_input.scale);
+    }
+}
+
+TEST(PathPlanner, WindowPlannerIsTheOldSmootherAndClamp)
+{
+    // The Gaussian window planner gives exactly what the first wave's smoother + framing gave.
+    const auto path = shakyPath(4, 100, 10.0, 1.0, 0.0);
+    WindowPathPlanner planner(SmootherKind::Gaussian, 20, 0.08, true);
+    const auto planned = planPath(planner, path, 20);
+    const WeightedTrajectorySmoother smoother(SmootherKind::Gaussian, 20);
+    for (std::size_t i = 0; i < path.size(); ++i) {
+        const std::size_t lo = i >= 20 ? i - 20 : 0, hi = std::min(path.size() - 1, i + 20);
+        const std::vector<Similarity> window(path.begin() + long(lo), path.begin() + long(hi) + 1);
+        const Similarity smoothed = smoother.smooth(window, i - lo);
+        const Framing f = frameOutput(smoothed.inverse() * path[i], kWidth, kHeight, 0.08, true);
+        ASSERT_EQ(planned[i].smoothed.dx, smoothed.dx);
+        ASSERT_EQ(planned[i].output_to_input.dx, f.output_to_input.dx);
+        ASSERT_EQ(planned[i].correction_fraction, f.fraction);
+    }
+}
