@@ -27,6 +27,8 @@ void StabilizerConfig::validate() const
     require(dwell >= 1, "dwell must be >= 1");
     require(min_points >= 2, "min_points must be >= 2");
     require(crop >= 0.0 && crop <= 0.5, "crop must be in [0, 0.5]");
+    require(max_zoom >= 1.0 && max_zoom <= 4.0, "max_zoom must be in [1, 4]");
+    require(zoom_speed > 0.0 && zoom_speed <= 0.1, "zoom_speed must be in (0, 0.1]");
     require(planner_smoothness >= 1.0 && planner_smoothness <= 1e7, "planner_smoothness must be in [1, 1e7]");
     require(analysis_width >= 16, "analysis_width must be >= 16");
     require(threads >= 0 && threads <= 64, "threads must be in [0, 64]");

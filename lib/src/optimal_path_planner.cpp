@@ -127,15 +127,45 @@ double extrapolate(const std::vector<double> &values, std::size_t count, int ahe
 
 OptimalPathPlanner::OptimalPathPlanner(const Settings &settings) : settings_(settings) {}
 
+double OptimalPathPlanner::planZoom(const PlanRequest &request, const std::array<std::vector<double>, 4> &camera,
+                                    const std::array<std::vector<double>, 4> &reference, const Params &origin)
+{
+    const double base = zoomForCrop(settings_.crop);
+    if (!settings_.adaptive_zoom)
+        return base;
+    const double max_zoom = std::max(base, settings_.max_zoom);
+    const double hx = (request.width - 1) * 0.5, hy = (request.height - 1) * 0.5;
+    // The zoom each known frame needs to show stage 1's pose with no border, less what the
+    // zoom can gain before that frame: the largest is what this frame needs.
+    double needed = base;
+    for (std::size_t j = 0; j < request.lookahead.size(); ++j) {
+        const double scale = std::exp(reference[kLogScale][j] - camera[kLogScale][j]);
+        const double angle = reference[kAngle][j] - camera[kAngle][j];
+        const double turn = origin[kAngle] + camera[kAngle][j];
+        const double dx = reference[kX][j] - camera[kX][j], dy = reference[kY][j] - camera[kY][j];
+        const double camera_scale = std::exp(origin[kLogScale] + camera[kLogScale][j]);
+        // Translation in frame j's own axes.
+        const double tx = std::abs(std::cos(turn) * dx + std::sin(turn) * dy) / camera_scale;
+        const double ty = std::abs(-std::sin(turn) * dx + std::cos(turn) * dy) / camera_scale;
+        const double c = std::abs(std::cos(angle)), s = std::abs(std::sin(angle));
+        const double need_x = tx < hx ? scale * (hx * c + hy * s) / (hx - tx) : max_zoom;
+        const double need_y = ty < hy ? scale * (hx * s + hy * c) / (hy - ty) : max_zoom;
+        needed = std::max(needed, std::max(need_x, need_y) - double(j) * settings_.zoom_speed);
+    }
+    double zoom = std::min(needed, max_zoom);
+    if (past_zoom_ > 0.0)  // in at zoom_speed, out at a quarter of it: never pumping
+        zoom = std::clamp(zoom, past_zoom_ - 0.25 * settings_.zoom_speed, past_zoom_ + settings_.zoom_speed);
+    return std::clamp(zoom, base, max_zoom);
+}
+
 PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
 {
     if (request.segment_start) {
         past_reference_.clear();
         past_camera_.clear();
         past_change_ = {0.0, 0.0, 0.0, 0.0};
+        past_zoom_ = 0.0;
     }
-    const double zoom = zoomForCrop(settings_.crop);
-    const CropWindow window(request.width, request.height, zoom);
 
     // The camera path over the horizon: what is known, then the extrapolation. Values are
     // relative to the first frame's camera, for conditioning.
@@ -163,6 +193,14 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
             smoothAxis(camera[a], history[a], settings_.smoothness, threshold, settings_.reweighting_rounds);
     }
 
+    const double zoom = planZoom(request, camera, reference, origin);
+    // Frame j's zoom is at least this (zooming out is rate-limited).
+    const double zoom_out_speed = settings_.adaptive_zoom ? 0.25 * settings_.zoom_speed : 0.0;
+    const double base_zoom = zoomForCrop(settings_.crop);
+    auto windowOf = [&](std::size_t j) {
+        return CropWindow(request.width, request.height, std::max(base_zoom, zoom - double(j) * zoom_out_speed));
+    };
+
     // Stage 2: keep every known frame's crop window inside its frame, per parameter in
     // the order scale, angle, translation, each leaving the next what it does not use.
     // Only known frames are constrained: the extrapolated ones are a guess.
@@ -173,8 +211,9 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
         return fitAxis(ref, lower, upper, past_change_[a], settings_.stiffness, settings_.keep_inside);
     };
 
-    const double scale_room = std::max(0.0, settings_.scale_share * std::log(zoom) - kRoomEpsilon);
     for (std::size_t j = 0; j < fitted; ++j) {
+        const CropWindow w = windowOf(j);
+        const double scale_room = std::max(0.0, settings_.scale_share * std::log(w.hx / w.wx) - kRoomEpsilon);
         lower[j] = camera[kLogScale][j] - scale_room;
         upper[j] = camera[kLogScale][j] + scale_room;
     }
@@ -185,7 +224,7 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
 
     for (std::size_t j = 0; j < fitted; ++j) {
         const double room =
-            std::max(0.0, window.angleRoom(relative_scale[j], settings_.translation_reserve) - kRoomEpsilon);
+            std::max(0.0, windowOf(j).angleRoom(relative_scale[j], settings_.translation_reserve) - kRoomEpsilon);
         lower[j] = camera[kAngle][j] - room;
         upper[j] = camera[kAngle][j] + room;
     }
@@ -202,7 +241,7 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
     for (std::size_t j = 0; j < fitted; ++j) {
         const double turn = camera[kAngle][j];
         const double output_turn = reference[kAngle][j] + delta_angle[j];
-        const Point2 r = window.translationRoom(output_turn - turn, relative_scale[j]);
+        const Point2 r = windowOf(j).translationRoom(output_turn - turn, relative_scale[j]);
         const double bx = std::max(0.0, r.x - kRoomEpsilon), by = std::max(0.0, r.y - kRoomEpsilon);
         const double c = std::abs(std::cos(turn)), s = std::abs(std::sin(turn));
         double shrink = 1.0;
@@ -236,9 +275,8 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
     const Similarity &camera_pose = request.lookahead.front();
     // frameOutput checks the corners and would shrink the correction should rounding ever
     // put one outside: the output is covered whatever happened above.
-    const Framing framing =
-        frameOutput(planned.smoothed.inverse() * camera_pose, request.width, request.height, settings_.crop,
-                    settings_.keep_inside);
+    const Framing framing = frameOutput(planned.smoothed.inverse() * camera_pose, request.width, request.height,
+                                        1.0 - 1.0 / zoom, settings_.keep_inside);
     planned.correction = framing.applied;
     planned.output_to_input = framing.output_to_input;
     planned.zoom = framing.zoom;
@@ -254,6 +292,7 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
         past_reference_.pop_front();
     const double dx = delta_position[0][0], dy = delta_position[1][0];
     past_change_ = {ca * dx - sa * dy, sa * dx + ca * dy, delta_angle[0], delta_scale[0]};
+    past_zoom_ = zoom;
     past_camera_.push_back(origin);
     while (past_camera_.size() > std::size_t(settings_.prediction_frames))
         past_camera_.pop_front();

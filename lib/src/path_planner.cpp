@@ -20,6 +20,9 @@ std::unique_ptr<PathPlanner> makePathPlanner(const StabilizerConfig &config)
     OptimalPathPlanner::Settings settings;
     settings.crop = config.crop;
     settings.keep_inside = config.limit_to_crop;
+    settings.adaptive_zoom = config.adaptive_zoom;
+    settings.max_zoom = config.max_zoom;
+    settings.zoom_speed = config.zoom_speed;
     settings.smoothness = config.planner_smoothness;
     return std::make_unique<OptimalPathPlanner>(settings);
 }

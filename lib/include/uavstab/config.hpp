@@ -81,6 +81,11 @@ struct StabilizerConfig {
     // Shrink a correction that would show more border than the crop hides, so that
     // the output stays covered by picture.
     bool limit_to_crop = true;
+    // Optimal planner: zoom in beyond `crop` as far and as early as the look-ahead shows
+    // the path needs, up to max_zoom, by at most zoom_speed per frame (out at a quarter).
+    bool adaptive_zoom = false;
+    double max_zoom = 1.25;
+    double zoom_speed = 0.001;
     BorderMode border = BorderMode::Black;
 
     // Motion is estimated on luma downscaled to this width (full size when smaller);

@@ -18,6 +18,9 @@
 //    the window planners' per-frame clamp does). Scale is fitted first, then the angle with
 //    a reserve kept for translation, then the translation with what the rotation left.
 //
+// Adaptive zoom (an option) plans the zoom before stage 2 from how far stage 1's path
+// strays from the camera's over the known look-ahead.
+//
 // The horizon is the known look-ahead plus `extension` frames of the camera path
 // extrapolated along a line fitted to its last frames, so the plan ends heading where the
 // camera heads: no lag on a steady pan even at delay 0.
@@ -52,6 +55,12 @@ public:
         double translation_reserve = 0.5;
         // Share of the crop zoom's log that a scale difference may use.
         double scale_share = 0.25;
+        // Adaptive zoom: beyond the crop's zoom, zoom in as far and as early as the look-ahead
+        // shows stage 1's path needs (so stage 2 need not bend it), up to max_zoom, changing
+        // by at most zoom_speed per frame in and a quarter of that out.
+        bool adaptive_zoom = false;
+        double max_zoom = 1.25;
+        double zoom_speed = 0.001;
         int extension = 20;            // extrapolated frames after the look-ahead
         int prediction_frames = 20;    // frames the extrapolation is fitted to
     };
@@ -62,11 +71,14 @@ public:
 
 private:
     using Params = std::array<double, 4>;  // x, y, angle, log scale
+    double planZoom(const PlanRequest &request, const std::array<std::vector<double>, 4> &camera,
+                    const std::array<std::vector<double>, 4> &reference, const Params &origin);
 
     Settings settings_;
     std::deque<Params> past_reference_;  // stage 1's committed values, newest last
     std::deque<Params> past_camera_;     // newest last
     Params past_change_{};               // stage 2's committed change
+    double past_zoom_ = 0.0;             // 0: none yet in this segment
 };
 
 } // namespace uavstab
