@@ -48,7 +48,6 @@
 #include "output_pool.hpp"
 #include "output_queue.hpp"
 #include "uavstab/stabilizer.hpp"
-#include "uavstabilize_enums.hpp"
 #include "uavstabilize_properties.hpp"
 #include "uavstabilize_settings.hpp"
 
@@ -484,7 +483,7 @@ BufferPtr detachFromSmallPool(GstUavStabilize *self, UavStabilizeState &s, Buffe
     GstBufferPool *pool = buffer->pool;
     if (!pool)
         return buffer;
-    const guint needed = guint(s.stabilizer->config().delay) + kExtraInputBuffers;
+    const guint needed = currentDelay(self) + kExtraInputBuffers;
     if (pool != s.checked_pool || needed != s.checked_needed) {
         GstStructure *config = gst_buffer_pool_get_config(pool);
         guint min = 0, max = 0;
@@ -960,9 +959,7 @@ static void gst_uav_stabilize_class_init(GstUavStabilizeClass *klass)
                                           kDescription, "uavstabilize contributors");
     element_class->change_state = changeState;
 
-    gst_type_mark_as_plugin_api(UAVSTABILIZE_TYPE_SMOOTHER, GstPluginAPIFlags(0));
-    gst_type_mark_as_plugin_api(UAVSTABILIZE_TYPE_MODEL, GstPluginAPIFlags(0));
-    gst_type_mark_as_plugin_api(UAVSTABILIZE_TYPE_BORDER, GstPluginAPIFlags(0));
+    gstuavstab::markEnumTypesAsPluginApi();
 }
 
 static void gst_uav_stabilize_init(GstUavStabilize *self)

@@ -50,3 +50,20 @@ GType uavstabilize_border_get_type()
     };
     return registerEnum(&type, "GstUavStabilizeBorder", values);
 }
+
+GType uavstabilize_enum_type_for_field(const char *field)
+{
+    // One line per enum field of uavstab::StabilizerConfig (its parameter table row).
+    static const struct {
+        const char *field;
+        GType (*type)();
+    } types[] = {
+        {"smoother", uavstabilize_smoother_get_type},
+        {"model", uavstabilize_model_get_type},
+        {"border", uavstabilize_border_get_type},
+    };
+    for (const auto &entry : types)
+        if (g_strcmp0(entry.field, field) == 0)
+            return entry.type();
+    return G_TYPE_INVALID;
+}

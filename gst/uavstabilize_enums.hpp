@@ -11,3 +11,7 @@
 GType uavstabilize_smoother_get_type();  // uavstab::SmootherKind
 GType uavstabilize_model_get_type();     // uavstab::ModelChoice
 GType uavstabilize_border_get_type();    // uavstab::BorderMode
+
+// The GEnum type of an enum field of uavstab::StabilizerConfig, by field name ("model");
+// G_TYPE_INVALID for a field that has none.
+GType uavstabilize_enum_type_for_field(const char *field);

@@ -7,7 +7,7 @@
 struct UavStabilizeSettings {
     uavstab::StabilizerConfig stabilizer;
     bool post_messages = false;
-    // Set by every property change, cleared when the streaming thread applies the
+    // Set by every change of `stabilizer`, cleared when the streaming thread applies the
     // config, so that changes in PLAYING reach the stabilizer at the next frame.
     bool dirty = false;
 };

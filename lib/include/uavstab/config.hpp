@@ -1,6 +1,7 @@
 // Every tunable of the stabilizer, with the paper's defaults (Lim et al., "Real-Time
-// Optical flow-based Video Stabilization for UAVs"). The GStreamer element's properties
-// map onto these fields one to one.
+// Optical flow-based Video Stabilization for UAVs"). Each field's range and description
+// are in the parameter table (config_params.hpp, one row per field), from which both
+// validate() and the GStreamer element's properties are made.
 #pragma once
 
 #include <string>
@@ -80,7 +81,8 @@ struct StabilizerConfig {
     // Pass frames through untouched (same delay, so toggling never reorders frames).
     bool bypass = false;
 
-    // Throws std::invalid_argument naming the first field out of range.
+    // Throws std::invalid_argument naming the first field out of its range (the parameter
+    // table's, config_params.hpp) and that range.
     void validate() const;
     // Worker threads this config resolves to on this machine.
     int resolvedThreads() const;

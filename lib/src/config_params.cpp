@@ -1,0 +1,103 @@
+#include "uavstab/config_params.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace uavstab {
+
+namespace {
+
+using C = StabilizerConfig;
+
+std::vector<ConfigParam> makeTable()
+{
+    // One row per StabilizerConfig field, in declaration order. Defaults are the field
+    // initializers in config.hpp; ranges are inclusive.
+    return {
+        param<&C::delay>("delay", "Delay",
+                         "Frames held back so the smoothing window can look ahead (adds delay x frame duration "
+                         "of latency; 0 = causal smoothing)",
+                         0, 1000),
+        param<&C::smoothing_radius>("smoothing_radius", "Smoothing radius",
+                                    "Half-width of the camera path smoothing window, in frames", 0, 1000),
+        param<&C::smoother>("smoother", "Smoother", "How the camera path is smoothed", SmootherKind::Box,
+                            SmootherKind::Gaussian),
+        param<&C::max_corners>("max_corners", "Max corners", "Corners tracked per frame", 4, 200),
+        param<&C::roi>("roi", "Region of interest", "Central share of width and height where corners are detected",
+                       0.1, 1.0),
+        param<&C::redetect_interval>("redetect_interval", "Redetect interval",
+                                     "Frames between corner re-detections (sooner when tracks are lost)", 1, 1000),
+        param<&C::fb_threshold>("fb_threshold", "Forward-backward threshold",
+                                "A track is kept when tracking it back lands within this many analysis pixels",
+                                0.01, 100.0),
+        param<&C::tracking_window>("tracking_window", "Tracking window",
+                                   "Side of the Lucas-Kanade window in analysis pixels (odd; the element rounds an "
+                                   "even value up). Smaller is faster (19: about a quarter less tracking time), "
+                                   "larger follows low-texture scenes better",
+                                   7, 41, kParamOdd),
+        param<&C::model>("model", "Motion model", "Motion model fitted to the tracks", ModelChoice::Hybrid,
+                         ModelChoice::Similarity),
+        param<&C::dwell>("dwell", "Dwell", "Frames a hybrid model choice is kept before it is re-evaluated", 1,
+                         100000),
+        param<&C::min_points>("min_points", "Min points",
+                              "Fewer surviving tracks than this: the frame gets no correction", 2, 200),
+        param<&C::crop>("crop", "Crop",
+                        "Share of width/height hidden by the zoom (split between opposite edges; zoom = 1 / (1 - "
+                        "crop))",
+                        0.0, 0.5),
+        flag<&C::limit_to_crop>("limit_to_crop", "Limit to crop",
+                                "Shrink corrections that would show more border than the crop hides"),
+        param<&C::border>("border", "Border", "What uncovered output pixels show", BorderMode::Black,
+                          BorderMode::Replicate),
+        param<&C::analysis_width>("analysis_width", "Analysis width",
+                                  "Motion is estimated on luma downscaled to this width (full size when smaller)", 16,
+                                  16384),
+        param<&C::threads>("threads", "Threads", "Warp worker threads (0 = one per core)", 0, 64, kParamAtStartOnly),
+        flag<&C::bypass>("bypass", "Bypass",
+                         "Pass frames through untouched, with the same delay (toggling never reorders frames)"),
+    };
+}
+
+std::string formatNumber(double value)
+{
+    std::ostringstream out;
+    out << value;
+    return out.str();
+}
+
+} // namespace
+
+bool ConfigParam::accepts(double value) const
+{
+    if (!(value >= min && value <= max))  // NaN fails too
+        return false;
+    if (kind == ParamKind::Double)
+        return true;
+    if (value != std::floor(value))
+        return false;
+    return !odd() || std::fmod(value, 2.0) != 0.0;
+}
+
+std::string ConfigParam::rangeText() const
+{
+    std::string text = "in [" + formatNumber(min) + ", " + formatNumber(max) + "]";
+    if (odd())
+        text += " and odd";
+    return text;
+}
+
+const std::vector<ConfigParam> &configParams()
+{
+    static const std::vector<ConfigParam> table = makeTable();
+    return table;
+}
+
+const ConfigParam *findConfigParam(const std::string &name)
+{
+    for (const ConfigParam &p : configParams())
+        if (name == p.name)
+            return &p;
+    return nullptr;
+}
+
+} // namespace uavstab
