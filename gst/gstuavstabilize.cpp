@@ -105,6 +105,7 @@ struct UavStabilizeState final : OutputBufferSource {
     GstCaps *caps = nullptr;
     GstVideoInfo info{};
     std::size_t max_finalized = 0;  // chain backpressure: finalized frames not yet popped
+    int bad_buffers = 0;                 // consecutive input buffers dropped as unreadable
     const void *checked_pool = nullptr;  // the upstream pool last looked at...
     guint checked_needed = 0;            // ...and the buffers we needed then
     bool copy_from_pool = false;         // its buffers are too few to hold: copy frames
@@ -204,6 +205,14 @@ guint currentDelay(GstUavStabilize *self)
     const guint delay = guint(self->settings->stabilizer.delay);
     GST_OBJECT_UNLOCK(self);
     return delay;
+}
+
+int maxErrors(GstUavStabilize *self)
+{
+    GST_OBJECT_LOCK(self);
+    const int max_errors = self->settings->max_errors;
+    GST_OBJECT_UNLOCK(self);
+    return max_errors;
 }
 
 bool postMessagesEnabled(GstUavStabilize *self)
@@ -501,6 +510,32 @@ BufferPtr detachFromSmallPool(GstUavStabilize *self, UavStabilizeState &s, Buffe
     return BufferPtr(gst_buffer_copy_deep(buffer.get()));
 }
 
+// A buffer that does not hold a frame of the caps (too small, or it cannot be mapped) is
+// dropped with a warning and the camera path restarts after it, as after a DISCONT; the
+// frames held before it and the stream go on. Like GstVideoDecoder's max-errors, only a
+// bad buffer after max-errors consecutive ones is an error (-1: never).
+GstFlowReturn dropBadBuffer(GstUavStabilize *self, UavStabilizeState &s, gsize size, GstClockTime pts)
+{
+    ++s.bad_buffers;
+    const int max_errors = maxErrors(self);
+    const bool fatal = max_errors >= 0 && s.bad_buffers > max_errors;
+    if (fatal) {
+        GST_ELEMENT_ERROR(self, STREAM, FORMAT, ("buffer too small for caps, or unreadable"),
+                          ("a %" G_GSIZE_FORMAT "-byte buffer (PTS %" GST_TIME_FORMAT ") cannot be read as a %dx%d %s "
+                           "frame (%" G_GSIZE_FORMAT " bytes): %d bad buffers in a row, more than max-errors=%d",
+                           size, GST_TIME_ARGS(pts), GST_VIDEO_INFO_WIDTH(&s.info), GST_VIDEO_INFO_HEIGHT(&s.info),
+                           GST_VIDEO_INFO_NAME(&s.info), GST_VIDEO_INFO_SIZE(&s.info), s.bad_buffers, max_errors));
+        return GST_FLOW_ERROR;
+    }
+    GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("buffer too small for caps, or unreadable: dropped"),
+                        ("a %" G_GSIZE_FORMAT "-byte buffer (PTS %" GST_TIME_FORMAT ") cannot be read as a %dx%d %s "
+                         "frame (%" G_GSIZE_FORMAT " bytes); dropped (%d in a row, max-errors=%d)",
+                         size, GST_TIME_ARGS(pts), GST_VIDEO_INFO_WIDTH(&s.info), GST_VIDEO_INFO_HEIGHT(&s.info),
+                         GST_VIDEO_INFO_NAME(&s.info), GST_VIDEO_INFO_SIZE(&s.info), s.bad_buffers, max_errors));
+    s.stabilizer->markDiscontinuity();
+    return GST_FLOW_OK;
+}
+
 GstFlowReturn chainFrame(GstUavStabilize *self, UavStabilizeState &s, BufferPtr buffer)
 {
     {
@@ -522,15 +557,11 @@ GstFlowReturn chainFrame(GstUavStabilize *self, UavStabilizeState &s, BufferPtr 
     buffer = detachFromSmallPool(self, s, std::move(buffer));
 
     const gsize buffer_size = gst_buffer_get_size(buffer.get());
+    const GstClockTime pts = GST_BUFFER_PTS(buffer.get());
     std::unique_ptr<GstFrameSlot> slot = GstFrameSlot::map(buffer.release(), s.info, s);
-    if (!slot) {
-        GST_ELEMENT_ERROR(self, STREAM, FORMAT, ("buffer too small for caps"),
-                          ("a %" G_GSIZE_FORMAT "-byte buffer cannot hold a %dx%d %s frame (%" G_GSIZE_FORMAT
-                           " bytes)",
-                           buffer_size, GST_VIDEO_INFO_WIDTH(&s.info), GST_VIDEO_INFO_HEIGHT(&s.info),
-                           GST_VIDEO_INFO_NAME(&s.info), GST_VIDEO_INFO_SIZE(&s.info)));
-        return GST_FLOW_ERROR;
-    }
+    if (!slot)
+        return dropBadBuffer(self, s, buffer_size, pts);
+    s.bad_buffers = 0;
 
     {
         // Backpressure: when downstream is slower than the warps, finalized frames (each
@@ -655,6 +686,7 @@ bool handleFlushStop(GstUavStabilize *self, UavStabilizeState &s, EventPtr event
             gst_buffer_pool_set_flushing(s.pool, FALSE);
     }
     gst_segment_init(&s.output_segment, GST_FORMAT_UNDEFINED);
+    s.bad_buffers = 0;
     const bool pushed = gst_pad_push_event(self->srcpad, event.release());
     startTask(self);
     return pushed;
@@ -888,6 +920,7 @@ void stopStream(UavStabilizeState &s)
     gst_caps_replace(&s.caps, nullptr);
     gst_video_info_init(&s.info);
     s.reported_errors.clear();
+    s.bad_buffers = 0;
 }
 
 GstStateChangeReturn changeState(GstElement *element, GstStateChange transition)

@@ -24,6 +24,11 @@ guint propPostMessages()
     return configPropertyCount() + 1;
 }
 
+guint propMaxErrors()
+{
+    return configPropertyCount() + 2;
+}
+
 constexpr GParamFlags kPlaying =
     GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
 constexpr GParamFlags kReady = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
@@ -116,6 +121,13 @@ void installProperties(GObjectClass *gobject_class)
                              "Post an element message 'uavstabilize' per frame with the motion, path and "
                              "correction (angles in radians)",
                              FALSE, kPlaying));
+    g_object_class_install_property(
+        gobject_class, propMaxErrors(),
+        g_param_spec_int("max-errors", "Max errors",
+                         "Consecutive input buffers that cannot be read (smaller than the caps, or unmappable) "
+                         "dropped with a warning; the next one is an error (-1 = never an error; like the "
+                         "video decoders' max-errors)",
+                         -1, G_MAXINT, kDefaultMaxErrors, kPlaying));
 }
 
 void markEnumTypesAsPluginApi()
@@ -138,6 +150,8 @@ bool setProperty(UavStabilizeSettings &settings, guint id, const GValue *value)
         settings.dirty = true;  // the streaming thread hands it to the stabilizer
     } else if (id == propPostMessages()) {
         settings.post_messages = g_value_get_boolean(value);
+    } else if (id == propMaxErrors()) {
+        settings.max_errors = g_value_get_int(value);
     } else {
         return false;
     }
@@ -150,6 +164,8 @@ bool getProperty(const UavStabilizeSettings &settings, guint id, GValue *value)
         setFromDouble(value, p->get(settings.stabilizer));
     else if (id == propPostMessages())
         g_value_set_boolean(value, settings.post_messages);
+    else if (id == propMaxErrors())
+        g_value_set_int(value, settings.max_errors);
     else
         return false;
     return true;

@@ -218,7 +218,9 @@ ELEMENT_TEST(every_config_field_is_a_property_with_its_range_and_default)
     }
     // The element's own properties are not in the table.
     fail_unless(uavstab::findConfigParam("post_messages") == nullptr);
+    fail_unless(uavstab::findConfigParam("max_errors") == nullptr);
     fail_unless(g_object_class_find_property(G_OBJECT_GET_CLASS(element), "post-messages") != nullptr);
+    fail_unless(g_object_class_find_property(G_OBJECT_GET_CLASS(element), "max-errors") != nullptr);
     gst_object_unref(element);
 }
 
