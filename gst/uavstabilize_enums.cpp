@@ -16,15 +16,18 @@ GType registerEnum(gsize *once, const char *name, const GEnumValue *values)
 
 } // namespace
 
-GType uavstabilize_smoother_get_type()
+GType uavstabilize_planner_get_type()
 {
     static gsize type = 0;
     static const GEnumValue values[] = {
-        {int(uavstab::SmootherKind::Box), "Moving average of the camera path", "box"},
-        {int(uavstab::SmootherKind::Gaussian), "Gaussian-weighted average (sigma = radius / 2)", "gaussian"},
+        {int(uavstab::PlannerKind::Optimal), "The path over the whole look-ahead, crop window inside every frame",
+         "optimal"},
+        {int(uavstab::PlannerKind::Gaussian), "Gaussian window (sigma = radius / 2), each frame clamped to the crop",
+         "gaussian"},
+        {int(uavstab::PlannerKind::Box), "The paper's moving average, each frame clamped to the crop", "box"},
         {0, nullptr, nullptr},
     };
-    return registerEnum(&type, "GstUavStabilizeSmoother", values);
+    return registerEnum(&type, "GstUavStabilizePlanner", values);
 }
 
 GType uavstabilize_model_get_type()
@@ -49,4 +52,21 @@ GType uavstabilize_border_get_type()
         {0, nullptr, nullptr},
     };
     return registerEnum(&type, "GstUavStabilizeBorder", values);
+}
+
+GType uavstabilize_enum_type_for_field(const char *field)
+{
+    // One line per enum field of uavstab::StabilizerConfig (its parameter table row).
+    static const struct {
+        const char *field;
+        GType (*type)();
+    } types[] = {
+        {"planner", uavstabilize_planner_get_type},
+        {"model", uavstabilize_model_get_type},
+        {"border", uavstabilize_border_get_type},
+    };
+    for (const auto &entry : types)
+        if (g_strcmp0(entry.field, field) == 0)
+            return entry.type();
+    return G_TYPE_INVALID;
 }

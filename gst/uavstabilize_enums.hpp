@@ -1,13 +1,17 @@
 // GEnum types for the element's enum properties, so that gst-launch and gst-inspect
-// know them by nick ("box", "gaussian", ...). Values are the library's enum values.
+// know them by nick ("optimal", "gaussian", ...). Values are the library's enum values.
 #pragma once
 
 #include <glib-object.h>
 
-#define UAVSTABILIZE_TYPE_SMOOTHER (uavstabilize_smoother_get_type())
+#define UAVSTABILIZE_TYPE_PLANNER (uavstabilize_planner_get_type())
 #define UAVSTABILIZE_TYPE_MODEL (uavstabilize_model_get_type())
 #define UAVSTABILIZE_TYPE_BORDER (uavstabilize_border_get_type())
 
-GType uavstabilize_smoother_get_type();  // uavstab::SmootherKind
+GType uavstabilize_planner_get_type();   // uavstab::PlannerKind
 GType uavstabilize_model_get_type();     // uavstab::ModelChoice
 GType uavstabilize_border_get_type();    // uavstab::BorderMode
+
+// The GEnum type of an enum field of uavstab::StabilizerConfig, by field name ("model");
+// G_TYPE_INVALID for a field that has none.
+GType uavstabilize_enum_type_for_field(const char *field);

@@ -1,238 +1,173 @@
 #include "uavstabilize_properties.hpp"
 
+#include <algorithm>
+#include <string>
+
 #include <gst/gst.h>
 
+#include "uavstab/config_params.hpp"
 #include "uavstabilize_enums.hpp"
 
 namespace gstuavstab {
 
 namespace {
 
-enum Property {
-    PROP_0,
-    PROP_DELAY,
-    PROP_SMOOTHING_RADIUS,
-    PROP_SMOOTHER,
-    PROP_MAX_CORNERS,
-    PROP_ROI,
-    PROP_REDETECT_INTERVAL,
-    PROP_FB_THRESHOLD,
-    PROP_TRACKING_WINDOW,
-    PROP_MODEL,
-    PROP_DWELL,
-    PROP_MIN_POINTS,
-    PROP_CROP,
-    PROP_LIMIT_TO_CROP,
-    PROP_BORDER,
-    PROP_ANALYSIS_WIDTH,
-    PROP_THREADS,
-    PROP_BYPASS,
-    PROP_POST_MESSAGES,
-};
+// Property ids: 1..N are the library's parameter table, row by row; the element's own
+// properties follow.
+guint configPropertyCount()
+{
+    return guint(uavstab::configParams().size());
+}
+
+guint propPostMessages()
+{
+    return configPropertyCount() + 1;
+}
+
+guint propMaxErrors()
+{
+    return configPropertyCount() + 2;
+}
 
 constexpr GParamFlags kPlaying =
     GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
 constexpr GParamFlags kReady = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
 
+// The table row behind a property id, or null for the element's own properties.
+const uavstab::ConfigParam *rowFor(guint id)
+{
+    if (id < 1 || id > configPropertyCount())
+        return nullptr;
+    return &uavstab::configParams()[id - 1];
+}
+
+GParamSpec *specFor(const uavstab::ConfigParam &p)
+{
+    const char *name = propertyName(p);
+    const GParamFlags flags = p.atStartOnly() ? kReady : kPlaying;
+    const double d = p.defaultValue();
+    switch (p.kind) {
+    case uavstab::ParamKind::Int:
+        // Unsigned where the range allows no negative value, as the properties always were.
+        if (p.min >= 0)
+            return g_param_spec_uint(name, p.nick, p.blurb, guint(p.min), guint(p.max), guint(d), flags);
+        return g_param_spec_int(name, p.nick, p.blurb, gint(p.min), gint(p.max), gint(d), flags);
+    case uavstab::ParamKind::Double:
+        return g_param_spec_double(name, p.nick, p.blurb, p.min, p.max, d, flags);
+    case uavstab::ParamKind::Bool:
+        return g_param_spec_boolean(name, p.nick, p.blurb, d != 0.0, flags);
+    case uavstab::ParamKind::Enum: {
+        const GType type = uavstabilize_enum_type_for_field(p.name);
+        if (type == G_TYPE_INVALID)
+            g_error("uavstabilize: no GEnum type for the enum field '%s' (add it to uavstabilize_enums.cpp)", p.name);
+        return g_param_spec_enum(name, p.nick, p.blurb, type, gint(d), flags);
+    }
+    }
+    g_error("uavstabilize: field '%s' has an unknown kind", p.name);
+    return nullptr;
+}
+
+double valueAsDouble(const GValue *value)
+{
+    if (G_VALUE_HOLDS_UINT(value))
+        return double(g_value_get_uint(value));
+    if (G_VALUE_HOLDS_INT(value))
+        return double(g_value_get_int(value));
+    if (G_VALUE_HOLDS_DOUBLE(value))
+        return g_value_get_double(value);
+    if (G_VALUE_HOLDS_BOOLEAN(value))
+        return g_value_get_boolean(value) ? 1.0 : 0.0;
+    if (G_VALUE_HOLDS_ENUM(value))
+        return double(g_value_get_enum(value));
+    g_critical("uavstabilize: unexpected property value type %s", G_VALUE_TYPE_NAME(value));
+    return 0.0;
+}
+
+void setFromDouble(GValue *value, double v)
+{
+    if (G_VALUE_HOLDS_UINT(value))
+        g_value_set_uint(value, guint(v));
+    else if (G_VALUE_HOLDS_INT(value))
+        g_value_set_int(value, gint(v));
+    else if (G_VALUE_HOLDS_DOUBLE(value))
+        g_value_set_double(value, v);
+    else if (G_VALUE_HOLDS_BOOLEAN(value))
+        g_value_set_boolean(value, v != 0.0);
+    else if (G_VALUE_HOLDS_ENUM(value))
+        g_value_set_enum(value, gint(v));
+    else
+        g_critical("uavstabilize: unexpected property value type %s", G_VALUE_TYPE_NAME(value));
+}
+
 } // namespace
+
+const char *propertyName(const uavstab::ConfigParam &param)
+{
+    std::string name = param.name;
+    for (char &c : name)
+        if (c == '_')
+            c = '-';
+    return g_intern_string(name.c_str());  // lives as long as the process
+}
 
 void installProperties(GObjectClass *gobject_class)
 {
-    const uavstab::StabilizerConfig d;  // the library's defaults are the element's
-    auto install = [gobject_class](Property id, GParamSpec *spec) {
-        g_object_class_install_property(gobject_class, id, spec);
-    };
-    install(PROP_DELAY, g_param_spec_uint("delay", "Delay",
-                                          "Frames held back so the smoothing window can look ahead (adds delay x "
-                                          "frame duration of latency; 0 = causal smoothing)",
-                                          0, 1000, guint(d.delay), kPlaying));
-    install(PROP_SMOOTHING_RADIUS,
-            g_param_spec_uint("smoothing-radius", "Smoothing radius",
-                              "Half-width of the camera path smoothing window, in frames", 0, 1000,
-                              guint(d.smoothing_radius), kPlaying));
-    install(PROP_SMOOTHER, g_param_spec_enum("smoother", "Smoother", "How the camera path is smoothed",
-                                             UAVSTABILIZE_TYPE_SMOOTHER, int(d.smoother), kPlaying));
-    install(PROP_MAX_CORNERS, g_param_spec_uint("max-corners", "Max corners", "Corners tracked per frame", 4, 200,
-                                                guint(d.max_corners), kPlaying));
-    install(PROP_ROI, g_param_spec_double("roi", "Region of interest",
-                                          "Central share of width and height where corners are detected", 0.1,
-                                          1.0, d.roi, kPlaying));
-    install(PROP_REDETECT_INTERVAL,
-            g_param_spec_uint("redetect-interval", "Redetect interval",
-                              "Frames between corner re-detections (sooner when tracks are lost)", 1, 1000,
-                              guint(d.redetect_interval), kPlaying));
-    install(PROP_FB_THRESHOLD,
-            g_param_spec_double("fb-threshold", "Forward-backward threshold",
-                                "A track is kept when tracking it back lands within this many analysis pixels",
-                                0.01, 100.0, d.fb_threshold, kPlaying));
-    install(PROP_TRACKING_WINDOW,
-            g_param_spec_uint("tracking-window", "Tracking window",
-                              "Side of the Lucas-Kanade window in analysis pixels (odd; an even value is rounded "
-                              "up). Smaller is faster (19: about a quarter less tracking time), larger follows "
-                              "low-texture scenes better",
-                              7, 41, guint(d.tracking_window), kPlaying));
-    install(PROP_MODEL, g_param_spec_enum("model", "Motion model", "Motion model fitted to the tracks",
-                                          UAVSTABILIZE_TYPE_MODEL, int(d.model), kPlaying));
-    install(PROP_DWELL, g_param_spec_uint("dwell", "Dwell",
-                                          "Frames a hybrid model choice is kept before it is re-evaluated", 1,
-                                          100000, guint(d.dwell), kPlaying));
-    install(PROP_MIN_POINTS,
-            g_param_spec_uint("min-points", "Min points",
-                              "Fewer surviving tracks than this: the frame gets no correction", 2, 200,
-                              guint(d.min_points), kPlaying));
-    install(PROP_CROP, g_param_spec_double("crop", "Crop",
-                                           "Share of width/height hidden by the zoom (split between opposite "
-                                           "edges; zoom = 1 / (1 - crop))",
-                                           0.0, 0.5, d.crop, kPlaying));
-    install(PROP_LIMIT_TO_CROP,
-            g_param_spec_boolean("limit-to-crop", "Limit to crop",
-                                 "Shrink corrections that would show more border than the crop hides",
-                                 d.limit_to_crop, kPlaying));
-    install(PROP_BORDER, g_param_spec_enum("border", "Border", "What uncovered output pixels show",
-                                           UAVSTABILIZE_TYPE_BORDER, int(d.border), kPlaying));
-    install(PROP_ANALYSIS_WIDTH,
-            g_param_spec_uint("analysis-width", "Analysis width",
-                              "Motion is estimated on luma downscaled to this width (full size when smaller)", 16,
-                              16384, guint(d.analysis_width), kPlaying));
-    install(PROP_THREADS, g_param_spec_uint("threads", "Threads", "Warp worker threads (0 = one per core)", 0, 64,
-                                            guint(d.threads), kReady));
-    install(PROP_BYPASS, g_param_spec_boolean("bypass", "Bypass",
-                                              "Pass frames through untouched, with the same delay (toggling "
-                                              "never reorders frames)",
-                                              d.bypass, kPlaying));
-    install(PROP_POST_MESSAGES,
-            g_param_spec_boolean("post-messages", "Post messages",
-                                 "Post an element message 'uavstabilize' per frame with the motion, path and "
-                                 "correction (angles in radians)",
-                                 FALSE, kPlaying));
+    for (guint id = 1; id <= configPropertyCount(); ++id)
+        g_object_class_install_property(gobject_class, id, specFor(*rowFor(id)));
+
+    g_object_class_install_property(
+        gobject_class, propPostMessages(),
+        g_param_spec_boolean("post-messages", "Post messages",
+                             "Post an element message 'uavstabilize' per frame with the motion, path and "
+                             "correction (angles in radians)",
+                             FALSE, kPlaying));
+    g_object_class_install_property(
+        gobject_class, propMaxErrors(),
+        g_param_spec_int("max-errors", "Max errors",
+                         "Consecutive input buffers that cannot be read (smaller than the caps, or unmappable) "
+                         "dropped with a warning; the next one is an error (-1 = never an error; like the "
+                         "video decoders' max-errors)",
+                         -1, G_MAXINT, kDefaultMaxErrors, kPlaying));
+}
+
+void markEnumTypesAsPluginApi()
+{
+    for (const uavstab::ConfigParam &p : uavstab::configParams())
+        if (p.kind == uavstab::ParamKind::Enum)
+            gst_type_mark_as_plugin_api(uavstabilize_enum_type_for_field(p.name), GstPluginAPIFlags(0));
 }
 
 bool setProperty(UavStabilizeSettings &settings, guint id, const GValue *value)
 {
-    uavstab::StabilizerConfig &c = settings.stabilizer;
-    switch (Property(id)) {
-    case PROP_DELAY:
-        c.delay = int(g_value_get_uint(value));
-        break;
-    case PROP_SMOOTHING_RADIUS:
-        c.smoothing_radius = int(g_value_get_uint(value));
-        break;
-    case PROP_SMOOTHER:
-        c.smoother = uavstab::SmootherKind(g_value_get_enum(value));
-        break;
-    case PROP_MAX_CORNERS:
-        c.max_corners = int(g_value_get_uint(value));
-        break;
-    case PROP_ROI:
-        c.roi = g_value_get_double(value);
-        break;
-    case PROP_REDETECT_INTERVAL:
-        c.redetect_interval = int(g_value_get_uint(value));
-        break;
-    case PROP_FB_THRESHOLD:
-        c.fb_threshold = g_value_get_double(value);
-        break;
-    case PROP_TRACKING_WINDOW:
-        c.tracking_window = int(g_value_get_uint(value)) | 1;  // the window has a centre pixel
-        break;
-    case PROP_MODEL:
-        c.model = uavstab::ModelChoice(g_value_get_enum(value));
-        break;
-    case PROP_DWELL:
-        c.dwell = int(g_value_get_uint(value));
-        break;
-    case PROP_MIN_POINTS:
-        c.min_points = int(g_value_get_uint(value));
-        break;
-    case PROP_CROP:
-        c.crop = g_value_get_double(value);
-        break;
-    case PROP_LIMIT_TO_CROP:
-        c.limit_to_crop = g_value_get_boolean(value);
-        break;
-    case PROP_BORDER:
-        c.border = uavstab::BorderMode(g_value_get_enum(value));
-        break;
-    case PROP_ANALYSIS_WIDTH:
-        c.analysis_width = int(g_value_get_uint(value));
-        break;
-    case PROP_THREADS:
-        c.threads = int(g_value_get_uint(value));
-        break;
-    case PROP_BYPASS:
-        c.bypass = g_value_get_boolean(value);
-        break;
-    case PROP_POST_MESSAGES:
+    if (const uavstab::ConfigParam *p = rowFor(id)) {
+        // GLib 2.74 checks a double property's range in float precision
+        // (param_double_is_valid), so a value just outside it (1.0000001 for max 1) gets
+        // here unclamped: clamp it, as GLib means to, so that the library sees it in range.
+        double v = std::clamp(valueAsDouble(value), p->min, p->max);
+        if (p->odd())
+            v = double(int(v) | 1);  // e.g. the tracking window has a centre pixel: round up to odd
+        p->set(settings.stabilizer, v);
+        settings.dirty = true;  // the streaming thread hands it to the stabilizer
+    } else if (id == propPostMessages()) {
         settings.post_messages = g_value_get_boolean(value);
-        break;
-    default:
+    } else if (id == propMaxErrors()) {
+        settings.max_errors = g_value_get_int(value);
+    } else {
         return false;
     }
-    settings.dirty = true;
     return true;
 }
 
 bool getProperty(const UavStabilizeSettings &settings, guint id, GValue *value)
 {
-    const uavstab::StabilizerConfig &c = settings.stabilizer;
-    switch (Property(id)) {
-    case PROP_DELAY:
-        g_value_set_uint(value, guint(c.delay));
-        break;
-    case PROP_SMOOTHING_RADIUS:
-        g_value_set_uint(value, guint(c.smoothing_radius));
-        break;
-    case PROP_SMOOTHER:
-        g_value_set_enum(value, int(c.smoother));
-        break;
-    case PROP_MAX_CORNERS:
-        g_value_set_uint(value, guint(c.max_corners));
-        break;
-    case PROP_ROI:
-        g_value_set_double(value, c.roi);
-        break;
-    case PROP_REDETECT_INTERVAL:
-        g_value_set_uint(value, guint(c.redetect_interval));
-        break;
-    case PROP_FB_THRESHOLD:
-        g_value_set_double(value, c.fb_threshold);
-        break;
-    case PROP_TRACKING_WINDOW:
-        g_value_set_uint(value, guint(c.tracking_window));
-        break;
-    case PROP_MODEL:
-        g_value_set_enum(value, int(c.model));
-        break;
-    case PROP_DWELL:
-        g_value_set_uint(value, guint(c.dwell));
-        break;
-    case PROP_MIN_POINTS:
-        g_value_set_uint(value, guint(c.min_points));
-        break;
-    case PROP_CROP:
-        g_value_set_double(value, c.crop);
-        break;
-    case PROP_LIMIT_TO_CROP:
-        g_value_set_boolean(value, c.limit_to_crop);
-        break;
-    case PROP_BORDER:
-        g_value_set_enum(value, int(c.border));
-        break;
-    case PROP_ANALYSIS_WIDTH:
-        g_value_set_uint(value, guint(c.analysis_width));
-        break;
-    case PROP_THREADS:
-        g_value_set_uint(value, guint(c.threads));
-        break;
-    case PROP_BYPASS:
-        g_value_set_boolean(value, c.bypass);
-        break;
-    case PROP_POST_MESSAGES:
+    if (const uavstab::ConfigParam *p = rowFor(id))
+        setFromDouble(value, p->get(settings.stabilizer));
+    else if (id == propPostMessages())
         g_value_set_boolean(value, settings.post_messages);
-        break;
-    default:
+    else if (id == propMaxErrors())
+        g_value_set_int(value, settings.max_errors);
+    else
         return false;
-    }
     return true;
 }
 

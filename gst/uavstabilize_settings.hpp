@@ -4,10 +4,15 @@
 
 #include "uavstab/config.hpp"
 
+// Like GstVideoDecoder's max-errors: consecutive unreadable input buffers dropped with a
+// warning before the next one is an error; -1 = never an error.
+constexpr int kDefaultMaxErrors = 10;
+
 struct UavStabilizeSettings {
     uavstab::StabilizerConfig stabilizer;
     bool post_messages = false;
-    // Set by every property change, cleared when the streaming thread applies the
+    int max_errors = kDefaultMaxErrors;
+    // Set by every change of `stabilizer`, cleared when the streaming thread applies the
     // config, so that changes in PLAYING reach the stabilizer at the next frame.
     bool dirty = false;
 };

@@ -181,12 +181,12 @@ std::vector<Method> methods(bool deshake, bool vidstab)
     m.push_back({"input", "input (no stabilization)", Kind::Input, {}});
     // Both spelled out, so the rows keep their meaning when the library's defaults move.
     StabilizerConfig box;
-    box.smoother = SmootherKind::Box;
+    box.planner = PlannerKind::Box;
     box.smoothing_radius = 10;
     box.delay = 20;
     m.push_back({"ours_box10", "ours box r10 (the paper's)", Kind::Ours, box});
     StabilizerConfig gauss;
-    gauss.smoother = SmootherKind::Gaussian;
+    gauss.planner = PlannerKind::Gaussian;
     gauss.smoothing_radius = 20;
     gauss.delay = 20;
     m.push_back({"ours_gauss20", "ours gaussian r20 (default)", Kind::Ours, gauss});

@@ -386,23 +386,152 @@ ELEMENT_TEST(toggling_bypass_never_reorders)
     gst_harness_teardown(h);
 }
 
-ELEMENT_TEST(short_buffer_is_an_error_not_a_crash)
+namespace {
+
+// A buffer of 100 bytes stamped as frame `index`: 64x48 I420 needs 4608.
+GstBuffer *shortBuffer(int index)
 {
-    GstHarness *h = smallHarness("delay=2");
+    GstBuffer *buffer = gst_buffer_new_allocate(nullptr, 100, nullptr);
+    stampFrame(buffer, index);
+    return buffer;
+}
+
+struct MessageCount {
+    int warnings = 0;
+    int errors = 0;
+};
+
+// Pops every message on the bus; each warning and error must mention `text`.
+MessageCount countMessages(GstBus *bus, const char *text = "buffer too small for caps")
+{
+    MessageCount count;
+    while (GstMessage *message = gst_bus_pop(bus)) {
+        GError *error = nullptr;
+        gchar *debug = nullptr;
+        if (GST_MESSAGE_TYPE(message) == GST_MESSAGE_WARNING) {
+            gst_message_parse_warning(message, &error, &debug);
+            ++count.warnings;
+        } else if (GST_MESSAGE_TYPE(message) == GST_MESSAGE_ERROR) {
+            gst_message_parse_error(message, &error, &debug);
+            ++count.errors;
+        }
+        if (error) {
+            fail_unless(g_strrstr(error->message, text) != nullptr, "message: %s", error->message);
+            g_error_free(error);
+            g_free(debug);
+        }
+        gst_message_unref(message);
+    }
+    return count;
+}
+
+} // namespace
+
+// Like a video decoder's corrupt frame: a buffer smaller than its caps is dropped with a
+// warning, and the frames held before it (delay 20: all twelve) and after it go on.
+ELEMENT_TEST(a_short_buffer_is_dropped_with_a_warning)
+{
+    GstHarness *h = smallHarness("");
     GstBus *bus = gst_bus_new();
     gst_element_set_bus(h->element, bus);
-    GstBuffer *buffer = gst_buffer_new_allocate(nullptr, 100, nullptr);  // 64x48 I420 needs 4608
-    stampFrame(buffer, 0);
-    fail_unless_equals_int(gst_harness_push(h, buffer), GST_FLOW_ERROR);
-    GstMessage *message = popMessage(bus, GST_MESSAGE_ERROR);
-    fail_unless(message != nullptr, "no error message");
-    GError *error = nullptr;
-    gchar *debug = nullptr;
-    gst_message_parse_error(message, &error, &debug);
-    fail_unless(g_strrstr(error->message, "buffer too small for caps") != nullptr, "error: %s", error->message);
-    g_error_free(error);
-    g_free(debug);
-    gst_message_unref(message);
+    StreamLog log(h->sinkpad);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+    constexpr int kBad = 12;
+    for (int i = 0; i < 25; ++i) {
+        GstBuffer *buffer = i == kBad ? shortBuffer(i) : makeFrame(info, i);
+        fail_unless_equals_int(gst_harness_push(h, buffer), GST_FLOW_OK);
+    }
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+    const std::vector<LoggedItem> buffers = log.buffers();
+    fail_unless_equals_int(int(buffers.size()), 24);
+    for (int out = 0; out < 24; ++out) {
+        const int in = out < kBad ? out : out + 1;
+        fail_unless_equals_uint64(buffers[out].offset, guint64(in));
+        fail_unless_equals_uint64(buffers[out].pts, in * frameDuration());
+        fail_unless_equals_uint64(buffers[out].duration, frameDuration());
+    }
+    const MessageCount count = countMessages(bus);
+    fail_unless_equals_int(count.warnings, 1);
+    fail_unless_equals_int(count.errors, 0);
+    gst_element_set_bus(h->element, nullptr);
+    gst_object_unref(bus);
+    gst_harness_teardown(h);
+}
+
+// max-errors consecutive short buffers are dropped with a warning each; one more is an
+// error (GstVideoDecoder's rule). A good buffer starts the count afresh. Never a crash.
+ELEMENT_TEST(short_buffer_is_an_error_not_a_crash)
+{
+    GstHarness *h = smallHarness("delay=2 max-errors=3");
+    GstBus *bus = gst_bus_new();
+    gst_element_set_bus(h->element, bus);
+    StreamLog log(h->sinkpad);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+    int index = 0;
+    fail_unless_equals_int(gst_harness_push(h, makeFrame(info, index++)), GST_FLOW_OK);
+    for (int round = 0; round < 2; ++round) {
+        for (int i = 0; i < 3; ++i)
+            fail_unless_equals_int(gst_harness_push(h, shortBuffer(index++)), GST_FLOW_OK);
+        fail_unless_equals_int(gst_harness_push(h, makeFrame(info, index++)), GST_FLOW_OK);  // resets the count
+    }
+    fail_unless_equals_int(countMessages(bus).warnings, 6);
+    for (int i = 0; i < 3; ++i)
+        fail_unless_equals_int(gst_harness_push(h, shortBuffer(index++)), GST_FLOW_OK);
+    fail_unless_equals_int(gst_harness_push(h, shortBuffer(index++)), GST_FLOW_ERROR);
+    MessageCount count = countMessages(bus);
+    fail_unless_equals_int(count.warnings, 3);
+    fail_unless_equals_int(count.errors, 1);
+    // The three good frames before the error were held (delay 2) and still come out.
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+    const std::vector<LoggedItem> buffers = log.buffers();
+    fail_unless_equals_int(int(buffers.size()), 3);
+    fail_unless_equals_uint64(buffers[0].offset, 0);
+    fail_unless_equals_uint64(buffers[1].offset, 4);
+    fail_unless_equals_uint64(buffers[2].offset, 8);
+
+    // max-errors=0: the first short buffer is an error.
+    GstHarness *strict = smallHarness("delay=2 max-errors=0");
+    gst_element_set_bus(strict->element, bus);
+    fail_unless_equals_int(gst_harness_push(strict, shortBuffer(0)), GST_FLOW_ERROR);
+    count = countMessages(bus);
+    fail_unless_equals_int(count.warnings, 0);
+    fail_unless_equals_int(count.errors, 1);
+    gst_element_set_bus(strict->element, nullptr);
+    gst_harness_teardown(strict);
+
+    gst_element_set_bus(h->element, nullptr);
+    gst_object_unref(bus);
+    gst_harness_teardown(h);
+}
+
+ELEMENT_TEST(max_errors_minus_one_never_errors)
+{
+    GstHarness *h = smallHarness("delay=5 max-errors=-1");
+    GstBus *bus = gst_bus_new();
+    gst_element_set_bus(h->element, bus);
+    StreamLog log(h->sinkpad);
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_caps_unref(caps);
+    pushFrames(h, info, 0, 3);
+    for (int i = 3; i < 103; ++i)
+        fail_unless_equals_int(gst_harness_push(h, shortBuffer(i)), GST_FLOW_OK);
+    pushFrames(h, info, 103, 3);
+    fail_unless(gst_harness_push_event(h, gst_event_new_eos()));
+    fail_unless(log.waitForEos());
+    const std::vector<LoggedItem> buffers = log.buffers();
+    fail_unless_equals_int(int(buffers.size()), 6);
+    for (int i = 0; i < 6; ++i)
+        fail_unless_equals_uint64(buffers[i].offset, guint64(i < 3 ? i : 100 + i));
+    const MessageCount count = countMessages(bus);
+    fail_unless_equals_int(count.warnings, 100);
+    fail_unless_equals_int(count.errors, 0);
     gst_element_set_bus(h->element, nullptr);
     gst_object_unref(bus);
     gst_harness_teardown(h);
@@ -414,11 +543,11 @@ ELEMENT_TEST(properties_have_the_documented_defaults)
     guint delay = 0, radius = 0, corners = 0, redetect = 0, dwell = 0, min_points = 0, width = 0, threads = 99,
           window = 0;
     gdouble roi = 0, crop = 0;
-    gint smoother = -1, model = -1, border = -1;
+    gint planner = -1, model = -1, border = -1;
     gboolean bypass = TRUE, post = TRUE;
     g_object_get(element, "delay", &delay, "smoothing-radius", &radius, "max-corners", &corners, "redetect-interval",
                  &redetect, "dwell", &dwell, "min-points", &min_points, "analysis-width", &width, "threads", &threads,
-                 "roi", &roi, "crop", &crop, "smoother", &smoother, "model", &model, "border", &border, "bypass",
+                 "roi", &roi, "crop", &crop, "planner", &planner, "model", &model, "border", &border, "bypass",
                  &bypass, "post-messages", &post, "tracking-window", &window, nullptr);
     fail_unless_equals_int(delay, 20);
     fail_unless_equals_int(window, 21);
@@ -435,13 +564,16 @@ ELEMENT_TEST(properties_have_the_documented_defaults)
     fail_unless_equals_float(roi, 0.8);
     fail_unless_equals_float(crop, 0.08);
     fail_unless(!bypass && !post);
-    fail_unless_equals_int(smoother, 1);  // gaussian
+    gint max_errors = 0;
+    g_object_get(element, "max-errors", &max_errors, nullptr);
+    fail_unless_equals_int(max_errors, 10);  // GstVideoDecoder's default
+    fail_unless_equals_int(planner, 0);  // optimal
     // Enums are known by their nicks, as gst-launch spells them.
-    setProperties(element, "smoother=box model=similarity border=replicate");
-    g_object_get(element, "smoother", &smoother, "model", &model, "border", &border, nullptr);
+    setProperties(element, "planner=box model=similarity border=replicate");
+    g_object_get(element, "planner", &planner, "model", &model, "border", &border, nullptr);
     GEnumClass *klass = G_ENUM_CLASS(g_type_class_ref(G_PARAM_SPEC_VALUE_TYPE(
-        g_object_class_find_property(G_OBJECT_GET_CLASS(element), "smoother"))));
-    fail_unless_equals_string(g_enum_get_value(klass, smoother)->value_nick, "box");
+        g_object_class_find_property(G_OBJECT_GET_CLASS(element), "planner"))));
+    fail_unless_equals_string(g_enum_get_value(klass, planner)->value_nick, "box");
     g_type_class_unref(klass);
     fail_unless_equals_int(model, 2);
     fail_unless_equals_int(border, 1);
@@ -756,7 +888,9 @@ Suite *flowSuite()
     tcase_add_test(tc, drain_query_pushes_every_held_frame);
     tcase_add_test(tc, bypass_outputs_the_input_buffers_with_the_same_delay);
     tcase_add_test(tc, toggling_bypass_never_reorders);
+    tcase_add_test(tc, a_short_buffer_is_dropped_with_a_warning);
     tcase_add_test(tc, short_buffer_is_an_error_not_a_crash);
+    tcase_add_test(tc, max_errors_minus_one_never_errors);
     tcase_add_test(tc, properties_have_the_documented_defaults);
     tcase_add_test(tc, allocation_proposal_covers_the_held_frames);
     tcase_add_test(tc, safe_metas_are_copied_to_warped_frames);

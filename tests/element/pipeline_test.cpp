@@ -128,17 +128,22 @@ int teardownRuns()
 }
 
 // Issue 12's harness: appsrc pushes 10 good 320x240 I420 frames, then one buffer half the
-// size its caps say, and the pipeline is torn down at once, with warps still queued on
-// the workers (a single worker and delay 0, so they queue up). Before the fix this
-// crashed in Stabilizer::startWarp through a nulled pool about one run in six.
+// size its caps say (an error with max-errors=0, else dropped with a warning), and the
+// pipeline is torn down at once, with warps still queued on the workers (a single worker
+// and delay 0, so they queue up). Before the fix this crashed in Stabilizer::startWarp
+// through a nulled pool about one run in six.
 ELEMENT_TEST(teardown_with_warps_in_flight_after_a_bad_buffer)
 {
     GstCaps *caps = videoCaps("I420", 320, 240);
     const GstVideoInfo info = videoInfo(caps);
     const int runs = teardownRuns();
     for (int run = 0; run < runs; ++run) {
-        GstElement *pipeline = launchPipeline("appsrc name=src format=time ! uavstabilize threads=1 delay=0 ! "
-                                              "appsink name=sink sync=false drop=true max-buffers=1");
+        // Odd runs: the bad buffer is an error (max-errors=0, the old behaviour); even runs:
+        // it is dropped with a warning and the stream goes on.
+        GstElement *pipeline = launchPipeline(std::string("appsrc name=src format=time ! uavstabilize threads=1 "
+                                                          "delay=0 max-errors=") +
+                                              (run % 2 ? "0" : "10") +
+                                              " ! appsink name=sink sync=false drop=true max-buffers=1");
         GstElement *src = gst_bin_get_by_name(GST_BIN(pipeline), "src");
         g_object_set(src, "caps", caps, nullptr);
         fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);

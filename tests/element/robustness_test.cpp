@@ -263,7 +263,7 @@ ELEMENT_TEST(property_changes_from_another_thread_while_playing)
                 g_object_set(stab, "crop", double(rng() % 20) / 100.0, nullptr);
                 break;
             default:
-                gst_util_set_object_arg(G_OBJECT(stab), "smoother", rng() % 2 ? "gaussian" : "box");
+                gst_util_set_object_arg(G_OBJECT(stab), "planner", rng() % 3 == 0 ? "gaussian" : rng() % 2 ? "box" : "optimal");
                 break;
             }
             std::this_thread::sleep_for(std::chrono::milliseconds(1));

@@ -1,6 +1,7 @@
 // Every tunable of the stabilizer, with the paper's defaults (Lim et al., "Real-Time
-// Optical flow-based Video Stabilization for UAVs"). The GStreamer element's properties
-// map onto these fields one to one.
+// Optical flow-based Video Stabilization for UAVs"). Each field's range and description
+// are in the parameter table (config_params.hpp, one row per field), from which both
+// validate() and the GStreamer element's properties are made.
 #pragma once
 
 #include <string>
@@ -13,15 +14,11 @@ enum class ModelChoice {
     Similarity,  // 4 DOF: dx, dy, angle, scale
 };
 
-enum class SmootherKind {
-    Box,       // paper: moving average of the accumulated trajectory
-    Gaussian,  // Gaussian-weighted average over the same window, sigma = radius / 2
-};
-
+// How the output path is planned from the camera path (path_planner.hpp).
 enum class PlannerKind {
-    Optimal,   // constrained receding-horizon optimum over the look-ahead (optimal_path_planner.hpp)
-    Gaussian,  // Gaussian window over the path, then each frame clamped to the crop
-    Box,       // paper: moving average of the path, then each frame clamped to the crop
+    Optimal,   // the path over the whole look-ahead, with the crop as a constraint (optimal_path_planner.hpp)
+    Gaussian,  // first wave: Gaussian window (sigma = radius / 2), then each frame clamped to the crop
+    Box,       // paper: moving average over the window, then each frame clamped to the crop
 };
 
 enum class BorderMode {
@@ -30,25 +27,20 @@ enum class BorderMode {
 };
 
 struct StabilizerConfig {
-    // Frames held back so that the smoothing window can look ahead. With delay >=
-    // smoothing_radius the window is centred (the paper's); with delay 0 it is causal.
+    // Frames held back so that the planner can look ahead (the latency, in frames). 0 is
+    // causal: the optimal planner then relies on the crop margin and an extrapolation.
     int delay = 20;
 
-    // Half-width of the smoothing window: frames i-r .. i+r where available.
-    // Default: a Gaussian over the whole look-ahead (radius = delay = 20, sigma 10). The
-    // paper's box average of radius 10 (smoother = Box, smoothing_radius = 10) is kept as
-    // an option; the benchmark (tests/bench/REPORT.md) found the Gaussian leaves about
-    // half its residual jitter on synthetic clips with known motion (0.30 vs 0.56 px), a
-    // third on a shaken real drone clip (0.23 vs 0.80 px), and steadier real clips
-    // (ITF +2.9 vs +2.2 dB), at the same zoom and latency.
-    int smoothing_radius = 20;
-    SmootherKind smoother = SmootherKind::Gaussian;
-
-    // How the output path is planned from the camera path. The window planners use
-    // smoothing_radius (and `smoother` is ignored: kept until the parameter table lands).
+    // Default: the optimal planner, which plans the path over the whole look-ahead with
+    // the crop as a constraint; it departs from the paper's moving average (still here as
+    // `box`, with smoothing_radius 10) because that, like the first wave's Gaussian, bends
+    // deliberate manoeuvres and clamps each frame to the crop on its own, and needs a long
+    // look-ahead (tests/bench/REPORT.md compares all three at delays 0-20).
     PlannerKind planner = PlannerKind::Optimal;
-    // Optimal planner: weight of the path's third differences (jerk) against following
-    // the camera; larger is smoother and follows manoeuvres later.
+    // Window planners: half-width of the window, frames i-r .. i+r where known.
+    int smoothing_radius = 20;
+    // Optimal planner: weight of the jerk penalty against following the camera path;
+    // larger is smoother and bends deliberate motion more.
     double planner_smoothness = 30000.0;
 
     // Shi-Tomasi corners tracked per frame (paper: 50; at most 200).
@@ -98,14 +90,14 @@ struct StabilizerConfig {
     // Pass frames through untouched (same delay, so toggling never reorders frames).
     bool bypass = false;
 
-    // Throws std::invalid_argument naming the first field out of range.
+    // Throws std::invalid_argument naming the first field out of its range (the parameter
+    // table's, config_params.hpp) and that range.
     void validate() const;
     // Worker threads this config resolves to on this machine.
     int resolvedThreads() const;
 };
 
 const char *toString(ModelChoice m);
-const char *toString(SmootherKind s);
 const char *toString(BorderMode b);
 const char *toString(PlannerKind p);
 

@@ -12,6 +12,12 @@
 
 namespace uavstab {
 
+// The window planners' weights (window_path_planner.hpp).
+enum class SmootherKind {
+    Box,       // paper: moving average of the accumulated trajectory
+    Gaussian,  // Gaussian-weighted average over the same window, sigma = radius / 2
+};
+
 class TrajectorySmoother {
 public:
     virtual ~TrajectorySmoother() = default;

@@ -1,0 +1,218 @@
+#include "output_channel.hpp"
+
+GST_DEBUG_CATEGORY_EXTERN(gst_uav_stabilize_debug);
+#define GST_CAT_DEFAULT gst_uav_stabilize_debug
+
+OutputChannel::~OutputChannel()
+{
+    queue_.clear();
+    if (pool_) {
+        gst_buffer_pool_set_active(pool_, FALSE);
+        gst_object_unref(pool_);
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Flushing and activation
+
+void OutputChannel::startFlushing()
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    flushing_ = true;
+    // Wakes a chain blocked in acquireBuffer().
+    if (pool_ && gst_buffer_pool_is_active(pool_))
+        gst_buffer_pool_set_flushing(pool_, TRUE);
+    changed_.notify_all();
+}
+
+void OutputChannel::letDataFlowLocked()
+{
+    flushing_ = false;
+    pushing_ = false;
+    eos_queued_ = false;
+    last_flow_ = GST_FLOW_OK;
+}
+
+void OutputChannel::stopFlushing()
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    queue_.clear();
+    letDataFlowLocked();
+    if (pool_ && gst_buffer_pool_is_active(pool_))
+        gst_buffer_pool_set_flushing(pool_, FALSE);
+}
+
+void OutputChannel::activate()
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    letDataFlowLocked();
+}
+
+void OutputChannel::clear()
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    queue_.clear();
+    pushing_ = false;
+}
+
+bool OutputChannel::flushing() const
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    return flushing_;
+}
+
+// ---------------------------------------------------------------------------------
+// Streaming thread
+
+GstFlowReturn OutputChannel::flowLocked() const
+{
+    return flushing_ ? GST_FLOW_FLUSHING : last_flow_;
+}
+
+GstFlowReturn OutputChannel::flow() const
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    return flowLocked();
+}
+
+GstFlowReturn OutputChannel::waitForRoom(const std::function<bool()> &has_room)
+{
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [&] { return flushing_ || last_flow_ != GST_FLOW_OK || has_room(); });
+    return flowLocked();
+}
+
+GstFlowReturn OutputChannel::queueFrameWhenRoom(const std::function<bool()> &has_room)
+{
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [&] { return flushing_ || last_flow_ != GST_FLOW_OK || has_room(); });
+    const GstFlowReturn ret = flowLocked();
+    if (ret == GST_FLOW_OK)
+        queue_.pushFrame();
+    return ret;
+}
+
+OutputChannel::EventQueued OutputChannel::queueEvent(EventPtr event)
+{
+    const GstEventType type = GST_EVENT_TYPE(event.get());
+    EventQueued result = EventQueued::Queued;
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (flushing_)
+        return EventQueued::Refused;
+    if (last_flow_ == GST_FLOW_EOS && (type == GST_EVENT_STREAM_START || type == GST_EVENT_SEGMENT)) {
+        // A new stream after EOS: data may flow again.
+        last_flow_ = GST_FLOW_OK;
+        eos_queued_ = false;
+        result = EventQueued::QueuedAfterEos;
+    } else if (last_flow_ != GST_FLOW_OK) {
+        GST_DEBUG_OBJECT(owner_, "refusing %" GST_PTR_FORMAT ": downstream returned %s", event.get(),
+                         gst_flow_get_name(last_flow_));
+        return EventQueued::Refused;
+    }
+    if (type == GST_EVENT_EOS)
+        eos_queued_ = true;
+    queue_.pushEvent(std::move(event));
+    changed_.notify_all();
+    return result;
+}
+
+bool OutputChannel::waitUntilDrained()
+{
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [&] { return flushing_ || last_flow_ != GST_FLOW_OK || (queue_.empty() && !pushing_); });
+    return !flushing_ && last_flow_ == GST_FLOW_OK;
+}
+
+void OutputChannel::recordError()
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    last_flow_ = GST_FLOW_ERROR;
+    changed_.notify_all();
+}
+
+// ---------------------------------------------------------------------------------
+// Src pad task
+
+bool OutputChannel::takeNext(const std::function<std::optional<uavstab::StabilizedFrame>()> &try_pop,
+                             std::optional<uavstab::StabilizedFrame> &frame, EventPtr &event)
+{
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [&] {
+        if (flushing_ || queue_.frontIsEvent())
+            return true;
+        if (!queue_.frontIsFrame())
+            return false;
+        frame = try_pop();
+        return frame.has_value();
+    });
+    if (flushing_)
+        return false;
+    if (frame)
+        queue_.popFrame();
+    else
+        event = queue_.popEvent();
+    pushing_ = true;
+    return true;
+}
+
+bool OutputChannel::finishPush(GstFlowReturn ret)
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    pushing_ = false;
+    if (ret != GST_FLOW_OK && !flushing_)
+        last_flow_ = ret;
+    changed_.notify_all();
+    return eos_queued_;
+}
+
+void OutputChannel::abortPush()
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    pushing_ = false;
+    last_flow_ = GST_FLOW_ERROR;
+    changed_.notify_all();
+}
+
+// ---------------------------------------------------------------------------------
+// Output buffers
+
+void OutputChannel::replacePool(GstBufferPool *pool)
+{
+    GstBufferPool *old;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        old = pool_;
+        pool_ = pool;
+    }
+    if (old) {
+        gst_buffer_pool_set_active(old, FALSE);
+        gst_object_unref(old);
+    }
+}
+
+GstBuffer *OutputChannel::acquireBuffer()
+{
+    GstBufferPool *current;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (flushing_ || !pool_)
+            return nullptr;
+        current = GST_BUFFER_POOL(gst_object_ref(pool_));
+    }
+    // May block until downstream returns a buffer; startFlushing() sets the pool flushing.
+    GstBuffer *buffer = nullptr;
+    const GstFlowReturn ret = gst_buffer_pool_acquire_buffer(current, &buffer, nullptr);
+    gst_object_unref(current);
+    if (ret != GST_FLOW_OK) {
+        GST_DEBUG("no output buffer: %s", gst_flow_get_name(ret));
+        return nullptr;
+    }
+    return buffer;
+}
+
+void OutputChannel::notify()
+{
+    // Under the mutex, so that a waiter between its check and its wait cannot miss it.
+    std::lock_guard<std::mutex> lock(mutex_);
+    changed_.notify_all();
+}

@@ -1,0 +1,115 @@
+// The uavstabilize element's insides, shared by the files that implement it, one job
+// each:
+//
+//   gstuavstabilize.cpp          GObject glue: class, instance, pads, properties, pad
+//                                activation and state changes
+//   uavstabilize_settings.cpp    the properties as the streaming thread and queries see them
+//   uavstabilize_sink.cpp        the sink pad: chain (input buffers) and events
+//   uavstabilize_src_task.cpp    the src pad task: pushes the output in order
+//   uavstabilize_queries.cpp     queries on both pads
+//   output_channel.cpp           the state those threads share: the ordered output queue,
+//                                the output pool and the flow flags, under one mutex
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <set>
+#include <string>
+
+#include <gst/gst.h>
+#include <gst/video/video.h>
+
+#include "frame_timing.hpp"
+#include "gst_frame_slot.hpp"
+#include "gstuavstabilize.hpp"
+#include "output_channel.hpp"
+#include "uavstab/stabilizer.hpp"
+#include "uavstabilize_settings.hpp"
+
+GST_DEBUG_CATEGORY_EXTERN(gst_uav_stabilize_debug);
+
+// Per-stream state, created with the element, filled at READY->PAUSED and caps time.
+struct UavStabilizeState final : OutputBufferSource {
+    explicit UavStabilizeState(GstObject *owner) : output(owner) {}
+    ~UavStabilizeState() override;
+    GstBuffer *acquireOutputBuffer() override { return output.acquireBuffer(); }
+
+    // Shared between the streaming thread, the task, the workers' ready callback,
+    // flushing threads and state changes; thread-safe (OutputChannel's mutex).
+    OutputChannel output;
+    // Written by the streaming thread, read by LATENCY queries; thread-safe.
+    FrameTiming timing;
+
+    // Streaming thread only (under the sink pad's stream lock), except that the task
+    // thread uses `stabilizer` (tryPop) while the pads are active.
+    std::unique_ptr<uavstab::Stabilizer> stabilizer;
+    GstCaps *caps = nullptr;
+    GstVideoInfo info{};
+    std::size_t max_finalized = 0;       // chain backpressure: finalized frames not yet popped
+    int bad_buffers = 0;                 // consecutive input buffers dropped as unreadable
+    const void *checked_pool = nullptr;  // the upstream pool last looked at...
+    guint checked_needed = 0;            // ...and the buffers we needed then
+    bool copy_from_pool = false;         // its buffers are too few to hold: copy frames
+
+    // Task thread only (or with the task stopped).
+    GstSegment output_segment{};
+    std::set<std::string> reported_errors;
+};
+
+struct _GstUavStabilize {
+    GstElement parent;
+    GstPad *sinkpad;
+    GstPad *srcpad;
+    UavStabilizeSettings *settings;  // under the object lock
+    UavStabilizeState *state;
+};
+
+namespace gstuavstab {
+
+// Input buffers we may hold beyond `delay`: being estimated, being warped, being pushed.
+constexpr guint kExtraInputBuffers = 4;
+
+struct BufferUnref {
+    void operator()(GstBuffer *buffer) const { gst_buffer_unref(buffer); }
+};
+using BufferPtr = std::unique_ptr<GstBuffer, BufferUnref>;
+
+inline UavStabilizeState &stateOf(GstUavStabilize *self)
+{
+    return *self->state;
+}
+
+// --- Settings (uavstabilize_settings.cpp): each a read under the object lock.
+
+// The stabilizer's config; the settings count as applied from now on.
+uavstab::StabilizerConfig takeConfig(GstUavStabilize *self);
+guint currentDelay(GstUavStabilize *self);
+bool postMessagesEnabled(GstUavStabilize *self);
+int maxErrors(GstUavStabilize *self);
+// Streaming thread: hands properties changed since the last frame to the stabilizer.
+void applyChangedSettings(GstUavStabilize *self, UavStabilizeState &s);
+void postLatencyChanged(GstUavStabilize *self);
+
+// --- Sink pad (uavstabilize_sink.cpp)
+
+GstFlowReturn sinkChain(GstPad *pad, GstObject *parent, GstBuffer *buffer);
+gboolean sinkEvent(GstPad *pad, GstObject *parent, GstEvent *event);
+// Streaming thread: finalizes every held frame (end of stream, caps change, drain), one
+// at a time with the chain's backpressure. False when flushing or downstream stopped.
+bool finalizeHeldFrames(UavStabilizeState &s);
+// A C++ exception at a pad boundary: a frame or event may be missing from the ordered
+// output, so the stream stops the way a downstream error stops it.
+void failStream(GstUavStabilize *self, UavStabilizeState &s, const char *what, const std::exception &e);
+
+// --- Src pad task (uavstabilize_src_task.cpp)
+
+void srcLoop(gpointer user_data);
+// (Re)starts the task if the src pad is active.
+void startTask(GstUavStabilize *self);
+
+// --- Queries (uavstabilize_queries.cpp)
+
+gboolean sinkQuery(GstPad *pad, GstObject *parent, GstQuery *query);
+gboolean srcQuery(GstPad *pad, GstObject *parent, GstQuery *query);
+
+} // namespace gstuavstab

@@ -1,0 +1,118 @@
+#include "uavstab/config_params.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace uavstab {
+
+namespace {
+
+using C = StabilizerConfig;
+
+std::vector<ConfigParam> makeTable()
+{
+    // One row per StabilizerConfig field, in declaration order. Defaults are the field
+    // initializers in config.hpp; ranges are inclusive.
+    return {
+        param<&C::delay>("delay", "Delay",
+                         "Frames held back so the smoothing window can look ahead (adds delay x frame duration "
+                         "of latency; 0 = causal smoothing)",
+                         0, 1000),
+        param<&C::planner>("planner", "Planner",
+                           "How the output path is planned: optimal (the path over the whole look-ahead, keeping "
+                           "the crop window inside every frame), gaussian (the first wave's Gaussian window, each "
+                           "frame then clamped to the crop) or box (the paper's moving average, clamped likewise)",
+                           PlannerKind::Optimal, PlannerKind::Box),
+        param<&C::smoothing_radius>("smoothing_radius", "Smoothing radius",
+                                    "Window planners (gaussian, box): half-width of the window, in frames", 0, 1000),
+        param<&C::planner_smoothness>("planner_smoothness", "Planner smoothness",
+                                      "Optimal planner: weight of the jerk penalty against following the camera "
+                                      "path; larger is smoother and bends deliberate motion more",
+                                      1.0, 1e7),
+        param<&C::max_corners>("max_corners", "Max corners", "Corners tracked per frame", 4, 200),
+        param<&C::roi>("roi", "Region of interest", "Central share of width and height where corners are detected",
+                       0.1, 1.0),
+        param<&C::redetect_interval>("redetect_interval", "Redetect interval",
+                                     "Frames between corner re-detections (sooner when tracks are lost)", 1, 1000),
+        param<&C::fb_threshold>("fb_threshold", "Forward-backward threshold",
+                                "A track is kept when tracking it back lands within this many analysis pixels",
+                                0.01, 100.0),
+        param<&C::tracking_window>("tracking_window", "Tracking window",
+                                   "Side of the Lucas-Kanade window in analysis pixels (odd; the element rounds an "
+                                   "even value up). Smaller is faster (19: about a quarter less tracking time), "
+                                   "larger follows low-texture scenes better",
+                                   7, 41, kParamOdd),
+        param<&C::model>("model", "Motion model", "Motion model fitted to the tracks", ModelChoice::Hybrid,
+                         ModelChoice::Similarity),
+        param<&C::dwell>("dwell", "Dwell", "Frames a hybrid model choice is kept before it is re-evaluated", 1,
+                         100000),
+        param<&C::min_points>("min_points", "Min points",
+                              "Fewer surviving tracks than this: the frame gets no correction", 2, 200),
+        param<&C::crop>("crop", "Crop",
+                        "Share of width/height hidden by the zoom (split between opposite edges; zoom = 1 / (1 - "
+                        "crop))",
+                        0.0, 0.5),
+        flag<&C::limit_to_crop>("limit_to_crop", "Limit to crop",
+                                "Keep the output covered by picture: the optimal planner plans the path inside the "
+                                "crop, the window planners shrink each frame's correction; off, borders may show"),
+        flag<&C::adaptive_zoom>("adaptive_zoom", "Adaptive zoom",
+                                "Optimal planner: zoom in beyond 'crop' as far and as early as the look-ahead shows "
+                                "the path needs, up to max-zoom, and out again slowly"),
+        param<&C::max_zoom>("max_zoom", "Max zoom", "Adaptive zoom: the largest zoom", 1.0, 4.0),
+        param<&C::zoom_speed>("zoom_speed", "Zoom speed",
+                              "Adaptive zoom: largest change of the zoom per frame when zooming in (out: a quarter)",
+                              0.0001, 0.1),
+        param<&C::border>("border", "Border", "What uncovered output pixels show", BorderMode::Black,
+                          BorderMode::Replicate),
+        param<&C::analysis_width>("analysis_width", "Analysis width",
+                                  "Motion is estimated on luma downscaled to this width (full size when smaller)", 16,
+                                  16384),
+        param<&C::threads>("threads", "Threads", "Warp worker threads (0 = one per core)", 0, 64, kParamAtStartOnly),
+        flag<&C::bypass>("bypass", "Bypass",
+                         "Pass frames through untouched, with the same delay (toggling never reorders frames)"),
+    };
+}
+
+std::string formatNumber(double value)
+{
+    std::ostringstream out;
+    out << value;
+    return out.str();
+}
+
+} // namespace
+
+bool ConfigParam::accepts(double value) const
+{
+    if (!(value >= min && value <= max))  // NaN fails too
+        return false;
+    if (kind == ParamKind::Double)
+        return true;
+    if (value != std::floor(value))
+        return false;
+    return !odd() || std::fmod(value, 2.0) != 0.0;
+}
+
+std::string ConfigParam::rangeText() const
+{
+    std::string text = "in [" + formatNumber(min) + ", " + formatNumber(max) + "]";
+    if (odd())
+        text += " and odd";
+    return text;
+}
+
+const std::vector<ConfigParam> &configParams()
+{
+    static const std::vector<ConfigParam> table = makeTable();
+    return table;
+}
+
+const ConfigParam *findConfigParam(const std::string &name)
+{
+    for (const ConfigParam &p : configParams())
+        if (name == p.name)
+            return &p;
+    return nullptr;
+}
+
+} // namespace uavstab
