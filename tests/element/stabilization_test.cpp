@@ -74,7 +74,15 @@ GST_START_TEST(warm_up)
 }
 GST_END_TEST;
 
-ELEMENT_TEST(shaky_flight_loses_three_quarters_of_its_jitter)
+namespace {
+
+struct Jitter {
+    double input = 0, output = 0;
+};
+
+// Pushes the synthetic flight through uavstabilize with `properties`, checks every frame
+// and its report come out, and measures the residual jitter of the output's camera path.
+Jitter stabilizeFlight(const std::string &properties)
 {
     uavstab::synthetic::FlightOptions options;
     options.width = 640;
@@ -83,7 +91,7 @@ ELEMENT_TEST(shaky_flight_loses_three_quarters_of_its_jitter)
     options.format = uavstab::PixelFormat::I420;
     const uavstab::synthetic::ShakyFlight flight(options);
 
-    GstHarness *h = makeHarness(makeStabilizer("threads=2 post-messages=true"));
+    GstHarness *h = makeHarness(makeStabilizer("threads=2 post-messages=true " + properties));
     GstBus *bus = gst_bus_new();
     gst_element_set_bus(h->element, bus);
     GstCaps *caps = videoCaps("I420", options.width, options.height);
@@ -116,18 +124,42 @@ ELEMENT_TEST(shaky_flight_loses_three_quarters_of_its_jitter)
         fail_unless_equals_int(int(reports[i].stats.index), i);
         input_path.push_back(flight.truePose(i));
         output_path.push_back(flight.truePose(i) * uavstab::synthetic::outputToInput(reports[i].stats));
+        // Never a border: the output frame reads from inside the input frame everywhere.
+        fail_unless(uavstab::synthetic::coverage(uavstab::synthetic::outputToInput(reports[i].stats), options.width,
+                                                 options.height) == 1.0,
+                    "frame %d shows border", i);
     }
-    const double input = uavstab::synthetic::residualJitter(input_path, options.width, options.height);
-    const double output = uavstab::synthetic::residualJitter(output_path, options.width, options.height);
-    GST_INFO("residual jitter: input %.3f px, output %.3f px", input, output);
-    g_print("residual jitter: input %.3f px, output %.3f px (%.0f %%)\n", input, output, 100.0 * output / input);
-    fail_unless(input > 1.0, "the synthetic flight is not shaky (%.3f)", input);
-    fail_unless(output <= 0.25 * input, "output jitter %.3f px is more than a quarter of the input's %.3f px", output,
-                input);
+    Jitter jitter;
+    jitter.input = uavstab::synthetic::residualJitter(input_path, options.width, options.height);
+    jitter.output = uavstab::synthetic::residualJitter(output_path, options.width, options.height);
+    g_print("%s: residual jitter: input %.3f px, output %.3f px (%.0f %%)\n", properties.c_str(), jitter.input,
+            jitter.output, 100.0 * jitter.output / jitter.input);
+    fail_unless(jitter.input > 1.0, "the synthetic flight is not shaky (%.3f)", jitter.input);
 
     gst_element_set_bus(h->element, nullptr);
     gst_object_unref(bus);
     gst_harness_teardown(h);
+    return jitter;
+}
+
+} // namespace
+
+ELEMENT_TEST(shaky_flight_loses_three_quarters_of_its_jitter)
+{
+    const Jitter j = stabilizeFlight("");
+    fail_unless(j.output <= 0.25 * j.input, "output jitter %.3f px is more than a quarter of the input's %.3f px",
+                j.output, j.input);
+}
+
+// The live user's delays. The thresholds are what the optimal planner keeps; the first
+X
+ELEMENT_TEST(short_delays_still_remove_most_of_the_jitter)
+{
+    for (const auto &[delay, share] : {std::pair<int, double>{5, 0.12}, {0, 0.28}}) {
+        const Jitter j = stabilizeFlight("delay=" + std::to_string(delay));
+        fail_unless(j.output <= share * j.input, "delay %d: output jitter %.3f px is more than %.0f %% of %.3f px",
+                    delay, j.output, 100 * share, j.input);
+    }
 }
 
 int main(int argc, char **argv)
@@ -138,5 +170,6 @@ int main(int argc, char **argv)
     suite_add_tcase(s, tc);
     tcase_add_test(tc, warm_up);
     tcase_add_test(tc, shaky_flight_loses_three_quarters_of_its_jitter);
+    tcase_add_test(tc, short_delays_still_remove_most_of_the_jitter);
     return runSuite(s) == 0 ? 0 : 1;
 }
