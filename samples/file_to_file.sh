@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Stabilize a video file into a new H.264 mp4.
 #   bash samples/file_to_file.sh IN_VIDEO OUT.mp4 [extra uavstabilize properties...]
-# e.g.  bash samples/file_to_file.sh flight.mp4 steady.mp4 smoother=gaussian smoothing-radius=20
+# e.g.  bash samples/file_to_file.sh flight.mp4 steady.mp4 planner=gaussian smoothing-radius=20
 set -euo pipefail
 in=${1:?usage: file_to_file.sh IN_VIDEO OUT.mp4 [properties]}
 out=${2:?usage: file_to_file.sh IN_VIDEO OUT.mp4 [properties]}

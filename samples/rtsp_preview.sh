@@ -8,4 +8,4 @@ url=${1:?usage: rtsp_preview.sh RTSP_URL [DELAY]}
 delay=${2:-5}
 exec gst-launch-1.0 \
   rtspsrc location="$url" latency=100 ! decodebin ! videoconvert \
-  ! uavstabilize delay="$delay" smoothing-radius="$delay" ! videoconvert ! autovideosink
+  ! uavstabilize delay="$delay" ! videoconvert ! autovideosink

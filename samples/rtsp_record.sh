@@ -12,6 +12,6 @@ out=${2:?usage: rtsp_record.sh RTSP_URL OUT.mp4 [DELAY]}
 delay=${3:-10}
 exec gst-launch-1.0 -e \
   rtspsrc location="$url" latency=200 ! decodebin ! videoconvert \
-  ! uavstabilize delay="$delay" smoothing-radius="$delay" \
+  ! uavstabilize delay="$delay" \
   ! videoconvert ! x264enc speed-preset=veryfast tune=zerolatency ! h264parse \
   ! mp4mux ! filesink location="$out"

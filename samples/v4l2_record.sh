@@ -9,7 +9,7 @@ out=${2:?usage: v4l2_record.sh DEVICE OUT.mp4 [DELAY]}
 delay=${3:-10}
 exec gst-launch-1.0 -e \
   v4l2src device="$device" ! videoconvert \
-  ! uavstabilize delay="$delay" smoothing-radius="$delay" \
+  ! uavstabilize delay="$delay" \
   ! tee name=t \
   t. ! queue ! videoconvert ! autovideosink sync=false \
   t. ! queue ! videoconvert ! x264enc speed-preset=veryfast tune=zerolatency ! h264parse ! mp4mux \
