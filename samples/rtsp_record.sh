@@ -3,7 +3,7 @@
 #   bash samples/rtsp_record.sh rtsp://HOST:PORT/PATH out.mp4 [DELAY]
 # Stop with Ctrl-C: -e turns it into an end-of-stream, so uavstabilize drains the frames
 # it holds and mp4mux writes a playable file.
-# DELAY (default 10 frames, 1/3 s at 30 fps) is the look-ahead of the smoothing window:
+# DELAY (default 10 frames, 1/3 s at 30 fps) is the path planner's look-ahead:
 # shorter is more responsive, longer is smoother. It is reported as latency, so live
 # sinks and the RTP jitterbuffer account for it.
 set -euo pipefail
