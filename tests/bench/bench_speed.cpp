@@ -4,7 +4,7 @@
 //   uavstab-bench-speed --out DIR [--quick] [--resolution WxH]... [--only lib|stages|latency|peers]...
 //
 // lib      Stabilizer push/pop throughput: resolutions x {I420, BGRx} x {1, 2} worker threads
-// stages   per-stage cost: MotionEstimator::estimate, the smoother (+ framing), FrameWarper::warp
+// stages   per-stage cost: MotionEstimator::estimate, the path planners, FrameWarper::warp
 // latency  frames pushed at 30 fps: processing latency (push of frame i+delay -> output i)
 // peers    ffmpeg deshake and vidstabdetect + vidstabtransform on the same frames (raw, tmpfs)
 #include <algorithm>
@@ -22,7 +22,7 @@
 #include "uavstab/framing.hpp"
 #include "uavstab/motion_estimator.hpp"
 #include "uavstab/stabilizer.hpp"
-#include "uavstab/trajectory_smoother.hpp"
+#include "uavstab/path_planner.hpp"
 
 using namespace uavstab;
 using namespace bench;
@@ -114,18 +114,20 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
     Fragment frag(o, "speed_stages");
     frag.text("Per-stage cost, measured directly on the library classes on one thread: "
               "`MotionEstimator::estimate` (luma extraction/downscale, pyramid, Shi-Tomasi every 5 frames, "
-              "LK forward+backward, robust fit), the smoother + framing (`WeightedTrajectorySmoother::smooth` on "
-              "a full window, then `frameOutput`), and `FrameWarper::warp` of a whole frame (OpenCV limited to "
-              "1 thread, and with OpenCV's default pool). ms/frame: mean (p95).");
-    Table t({"resolution", "format", "estimate", "smooth box r10", "smooth gauss r20", "warp (1 cv thread)",
-             "warp (cv default)", "sum (1 thread)", "other processes"});
+              "LK forward+backward, robust fit), the path planner (`PathPlanner::plan` for each frame of a "
+              "300-frame shaky path with the delay's look-ahead: the paper's box r10 and the Gaussian r20 window "
+              "planners, and the optimal planner at delays 20 and 0; frame geometry only, so the same at every "
+              "format), and `FrameWarper::warp` of a whole frame (OpenCV limited to 1 thread, and with OpenCV's "
+              "default pool). ms/frame: mean (p95); for the planners mean (p99).");
+    Table t({"resolution", "format", "estimate", "plan box r10", "plan gauss r20", "plan optimal d20",
+             "plan optimal d0", "warp (1 cv thread)", "warp (cv default)", "sum (1 thread)", "other processes"});
     const int default_threads = cv::getNumThreads();
     for (const ResolutionPlan &p : plans) {
         const auto &bgr = bgr_cache[p.res.name()];
         for (PixelFormat fmt : {PixelFormat::I420, PixelFormat::BGRx}) {
             const std::vector<FrameBuffer> frames = framesFromBgr(bgr, fmt);
             StabilizerConfig config;
-            std::vector<double> est, box, gauss, warp1, warpN;
+            std::vector<double> est, box, gauss, optimal20, optimal0, warp1, warpN;
             const double others = measureQuietly("stages " + p.res.name(), [&] {
                 cv::setNumThreads(1);
                 // Estimation.
@@ -138,29 +140,43 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
                     if (k >= 5)
                         est.push_back(msBetween(t0, Clock::now()));
                 }
-                // Smoothing + framing on a realistic path (the flight's own motion estimates).
-                auto smoothCost = [&](SmootherKind kind, int radius) {
-                    std::vector<Similarity> window;
+                // Planning a realistic path: a pan with shake, frame by frame, as the stabilizer does.
+                auto planCost = [&](PlannerKind kind, int radius, int delay) {
+                    StabilizerConfig pc;
+                    pc.planner = kind;
+                    pc.smoothing_radius = radius;
+                    pc.delay = delay;
+                    std::vector<Similarity> path;
                     Similarity pose;
-                    for (int k = 0; k <= 2 * radius; ++k) {
-                        pose = pose * Similarity{1.5 + std::sin(k * 0.7), 0.5 * std::cos(k * 1.3), 0.001 * k, 1.0};
-                        window.push_back(pose);
+                    for (int k = 0; k < 300; ++k) {
+                        pose = pose * Similarity{1.5 + 3 * std::sin(k * 0.7), 0.5 + 3 * std::cos(k * 1.3),
+                                                 0.002 * std::sin(k * 0.9), 1.0 + 0.0005 * std::sin(k * 1.1)};
+                        path.push_back(pose);
                     }
-                    const auto smoother = makeSmoother(kind, radius);
                     std::vector<double> ms;
-                    for (int rep = 0; rep < 2000; ++rep) {
-                        const auto t0 = Clock::now();
-                        const Similarity s = smoother->smooth(window, std::size_t(radius));
-                        const Framing f = frameOutput(s.inverse() * window[std::size_t(radius)], p.res.width,
-                                                      p.res.height, config.crop, config.limit_to_crop);
-                        ms.push_back(msBetween(t0, Clock::now()));
-                        if (f.zoom < 0)
-                            std::abort();
+                    for (int rep = 0; rep < (o.quick ? 2 : 5); ++rep) {
+                        const auto planner = makePathPlanner(pc);
+                        for (std::size_t i = 0; i < path.size(); ++i) {
+                            PlanRequest r;
+                            r.index = std::int64_t(i);
+                            r.segment_start = i == 0;
+                            r.lookahead.assign(path.begin() + long(i),
+                                               path.begin() + long(std::min(path.size(), i + std::size_t(delay) + 1)));
+                            r.width = p.res.width;
+                            r.height = p.res.height;
+                            const auto t0 = Clock::now();
+                            const PlannedFrame planned = planner->plan(r);
+                            ms.push_back(msBetween(t0, Clock::now()));
+                            if (planned.zoom < 0)
+                                std::abort();
+                        }
                     }
                     return ms;
                 };
-                box = smoothCost(SmootherKind::Box, 10);
-                gauss = smoothCost(SmootherKind::Gaussian, 20);
+                box = planCost(PlannerKind::Box, 10, 20);
+                gauss = planCost(PlannerKind::Gaussian, 20, 20);
+                optimal20 = planCost(PlannerKind::Optimal, 20, 20);
+                optimal0 = planCost(PlannerKind::Optimal, 20, 0);
                 // Warp.
                 FrameBuffer out(fmt, p.res.width, p.res.height);
                 auto warpCost = [&]() {
@@ -180,20 +196,26 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
                 cv::setNumThreads(default_threads);
                 warpN = warpCost();
             });
-            auto cell = [](const std::vector<double> &v, const char *f) {
-                return format(f, mean(v), percentile(v, 95));
+            auto cell = [](const std::vector<double> &v, const char *f, double pct = 95) {
+                return format(f, mean(v), percentile(v, pct));
             };
-            t.row({p.res.name(), formatName(fmt), cell(est, "%.2f (%.2f)"), cell(box, "%.4f (%.4f)"),
-                   cell(gauss, "%.4f (%.4f)"), cell(warp1, "%.2f (%.2f)"), cell(warpN, "%.2f (%.2f)"),
-                   format("%.2f", mean(est) + mean(gauss) + mean(warp1)), loadCell(others)});
+            t.row({p.res.name(), formatName(fmt), cell(est, "%.2f (%.2f)"), cell(box, "%.4f (%.4f)", 99),
+                   cell(gauss, "%.4f (%.4f)", 99), cell(optimal20, "%.4f (%.4f)", 99),
+                   cell(optimal0, "%.4f (%.4f)", 99), cell(warp1, "%.2f (%.2f)"), cell(warpN, "%.2f (%.2f)"),
+                   format("%.2f", mean(est) + mean(optimal20) + mean(warp1)), loadCell(others)});
             const std::string key = format("stage.%s.%s", p.res.name().c_str(), formatName(fmt));
             putResult(o, key + ".estimate_ms", mean(est));
-            putResult(o, key + ".smooth_box10_ms", mean(box));
-            putResult(o, key + ".smooth_gauss20_ms", mean(gauss));
+            putResult(o, key + ".plan_box10_ms", mean(box));
+            putResult(o, key + ".plan_gauss20_ms", mean(gauss));
+            putResult(o, key + ".plan_optimal20_ms", mean(optimal20));
+            putResult(o, key + ".plan_optimal20_p99_ms", percentile(optimal20, 99));
+            putResult(o, key + ".plan_optimal0_ms", mean(optimal0));
             putResult(o, key + ".warp1_ms", mean(warp1));
             putResult(o, key + ".warpN_ms", mean(warpN));
-            std::printf("  stages %s %s: estimate %.2f ms, warp %.2f ms (1 thread) %.2f ms (default)\n",
-                        p.res.name().c_str(), formatName(fmt), mean(est), mean(warp1), mean(warpN));
+            std::printf("  stages %s %s: estimate %.2f ms, plan (optimal, delay 20) %.3f ms (p99 %.3f), warp %.2f ms "
+                        "(1 thread) %.2f ms (default)\n",
+                        p.res.name().c_str(), formatName(fmt), mean(est), mean(optimal20), percentile(optimal20, 99),
+                        mean(warp1), mean(warpN));
             std::fflush(stdout);
         }
     }
