@@ -151,8 +151,8 @@ ELEMENT_TEST(shaky_flight_loses_three_quarters_of_its_jitter)
                 j.output, j.input);
 }
 
-// The live user's delays. The thresholds are what the optimal planner keeps; the first
-X
+// The live user's delays. The optimal planner keeps 10 % at delay 5 and 24 % at delay 0
+// of this flight; the first wave's Gaussian window kept 14 % and 35 % (fails these).
 ELEMENT_TEST(short_delays_still_remove_most_of_the_jitter)
 {
     for (const auto &[delay, share] : {std::pair<int, double>{5, 0.12}, {0, 0.28}}) {

@@ -41,7 +41,7 @@ struct StabilizerConfig {
     int smoothing_radius = 20;
     // Optimal planner: weight of the jerk penalty against following the camera path;
     // larger is smoother and bends deliberate motion more.
-    double planner_smoothness = 30000.0;
+    double planner_smoothness = 100000.0;
 
     // Shi-Tomasi corners tracked per frame (paper: 50; at most 200).
     int max_corners = 50;

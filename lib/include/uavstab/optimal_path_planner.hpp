@@ -45,11 +45,11 @@ public:
         // Stage 2 on: no border ever shows. Off (limit-to-crop=false): the output follows
         // stage 1 and borders may show.
         bool keep_inside = true;
-        double smoothness = 30000.0;   // stage 1: weight of the jerk penalty
+        double smoothness = 100000.0;  // stage 1: weight of the jerk penalty
         // Stage 1: jerk (px per frame^3) above which the penalty turns linear, as a share
         // of the frame's diagonal; and the reweighting rounds that approximate it.
-        double jerk_threshold = 2e-6;
-        int reweighting_rounds = 3;
+        double jerk_threshold = 1e-6;
+        int reweighting_rounds = 5;
         double stiffness = 1.0;        // stage 2: how far a change spreads to its neighbours
         // Share of the crop margin kept for translation when the angle is fitted.
         double translation_reserve = 0.5;
