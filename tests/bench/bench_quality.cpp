@@ -1039,9 +1039,7 @@ void zoomPlot(const Options &o, const ClipResult &r, const std::vector<Method> &
         s.push_back({longLabel(m), f, x->zoom_series, paletteColor(k - 1), m.kind == Kind::Ours ? 2 : 1});
     }
     writePng(o.out_dir + "/" + file,
-             linePlot(format("Zoom over time (input -> output scale, from registering each output frame to its input "
-                             "frame): %s",
-                             r.clip.label.c_str()),
+             linePlot(format("Zoom over time (input -> output scale, registered): %s", r.clip.name.c_str()),
                       "frame", "zoom", s, {1400, 460}));
 }
 
