@@ -69,12 +69,17 @@ double maxOf(const std::vector<double> &v)
 
 std::string format(const char *fmt, ...)
 {
-    char buf[1024];
-    va_list args;
+    // Any length: the report's paragraphs are longer than a fixed buffer.
+    va_list args, again;
     va_start(args, fmt);
-    std::vsnprintf(buf, sizeof buf, fmt, args);
+    va_copy(again, args);
+    const int n = std::vsnprintf(nullptr, 0, fmt, args);
     va_end(args);
-    return buf;
+    std::string s(std::size_t(std::max(n, 0)) + 1, '\0');
+    std::vsnprintf(s.data(), s.size(), fmt, again);
+    va_end(again);
+    s.resize(std::size_t(std::max(n, 0)));
+    return s;
 }
 
 std::string spread(const std::vector<double> &v, const char *number_format)

@@ -147,6 +147,14 @@ cv::Scalar paletteColor(int i)
         {189, 103, 148},  // purple
         {75, 86, 140},    // brown
         {194, 119, 227},  // pink
+        {34, 189, 188},   // olive
+        {207, 190, 23},   // cyan
+        {150, 150, 150},  // light grey
+        {120, 200, 255},  // light orange
+        {232, 199, 174},  // light blue
+        {138, 223, 152},  // light green
+        {150, 152, 255},  // light red
+        {213, 176, 197},  // light purple
     };
     return colors[std::size_t(i) % (sizeof colors / sizeof colors[0])];
 }

@@ -1,5 +1,6 @@
 #include "jitter_metrics.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -50,6 +51,31 @@ double residualJitter(const std::vector<Similarity> &path, int width, int height
         }
     }
     return std::sqrt(sum2 / (4.0 * n));
+}
+
+double intendedPathError(const std::vector<Similarity> &output_path, const std::vector<Similarity> &intended_path,
+                         int width, int height)
+{
+    const std::size_t n = std::min(output_path.size(), intended_path.size());
+    if (n == 0)
+        return 0.0;
+    const double hx = (width - 1) * 0.5, hy = (height - 1) * 0.5;
+    const std::array<Point2, 4> corners{{{-hx, -hy}, {hx, -hy}, {-hx, hy}, {hx, hy}}};
+    double sum2 = 0.0;
+    for (const Point2 &corner : corners) {
+        std::vector<Point2> e(n);
+        double mx = 0, my = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+            e[i] = (intended_path[i].inverse() * output_path[i]).apply(corner);
+            mx += e[i].x;
+            my += e[i].y;
+        }
+        mx /= double(n);
+        my /= double(n);
+        for (const Point2 &p : e)
+            sum2 += (p.x - mx) * (p.x - mx) + (p.y - my) * (p.y - my);
+    }
+    return std::sqrt(sum2 / (4.0 * double(n)));
 }
 
 double coverage(const Similarity &output_to_input, int width, int height)

@@ -19,6 +19,17 @@ Similarity outputToInput(const FrameStats &stats);
 // For the input: the true poses; for the output: true pose * output_to_input.
 double residualJitter(const std::vector<Similarity> &world_from_frame, int width, int height, double sigma = 8.0);
 
+// Error against the intended (shake-free) path, in px: how far the output strays from the
+// path the pilot meant to fly, up to a constant. output_path[i] maps output-frame centred
+// coordinates to world (true pose * output_to_input, as for residualJitter); for each frame
+// E_i = intended_i^-1 * output_i is where the output frame sits in the intended frame's
+// coordinates, ideally the same for every frame (the crop zoom, maybe an offset). The result
+// is the RMS over the four output-frame corners and all frames of E_i(corner) minus the
+// mean over frames of E_j(corner). A constant offset or zoom costs nothing; lagging behind
+// a pan that starts or stops, bending a manoeuvre and leftover shake all cost.
+double intendedPathError(const std::vector<Similarity> &output_path, const std::vector<Similarity> &intended_path,
+                         int width, int height);
+
 // Share of the output frame that shows picture: output pixels whose source lies inside
 // the input frame (sampled on a grid).
 double coverage(const Similarity &output_to_input, int width, int height);

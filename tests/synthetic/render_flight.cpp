@@ -2,7 +2,11 @@
 // as CSV beside it. Used by the demo and the benchmark.
 //
 //   uavstab-render-flight OUT.y4m [--width W] [--height H] [--frames N] [--fps F]
-//                         [--seed S] [--objects K] [--zoom A] [--truth OUT.csv]
+//                         [--seed S] [--objects K] [--zoom A] [--profile lissajous|manoeuvre]
+//                         [--truth OUT.csv]
+// --profile manoeuvre: hover, accelerating pans, a yaw turn, stops, a climb (see
+// shaky_flight.hpp); --zoom then has no effect. The CSV holds the intended path beside the
+// true one.
 #include <cstdio>
 #include <cstdlib>
 #include <cmath>
@@ -43,11 +47,21 @@ int main(int argc, char **argv)
             options.moving_objects = std::atoi(value());
         else if (arg == "--zoom")
             options.zoom_amplitude = std::atof(value());
-        else if (arg == "--truth")
+        else if (arg == "--profile") {
+            const std::string p = value();
+            if (p == "lissajous")
+                options.profile = synthetic::FlightProfile::Lissajous;
+            else if (p == "manoeuvre" || p == "maneuver")
+                options.profile = synthetic::FlightProfile::Manoeuvre;
+            else {
+                std::cerr << "--profile: lissajous or manoeuvre, not " << p << "\n";
+                return 2;
+            }
+        } else if (arg == "--truth")
             truth = value();
         else if (arg == "-h" || arg == "--help") {
             std::cout << "usage: uavstab-render-flight OUT.y4m [--width W] [--height H] [--frames N] [--fps F]"
-                         " [--seed S] [--objects K] [--zoom A] [--truth OUT.csv]\n";
+                         " [--seed S] [--objects K] [--zoom A] [--profile lissajous|manoeuvre] [--truth OUT.csv]\n";
             return 0;
         } else if (out.empty() && arg[0] != '-')
             out = arg;

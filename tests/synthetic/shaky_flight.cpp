@@ -27,7 +27,60 @@ double radians(double deg)
     return deg * kPi / 180.0;
 }
 
+// Where the manoeuvre flight starts (world px about the canvas centre, for 640x360).
+constexpr double kManoeuvreStartX = -105.0, kManoeuvreStartY = 30.0;
+
+// Share of a move done at time t of a segment lasting `length` with ramps of `ramp` at
+// both ends: trapezoidal velocity, i.e. constant acceleration, cruise, constant deceleration.
+double trapezoid(double t, double length, double ramp)
+{
+    if (t <= 0)
+        return 0.0;
+    if (t >= length)
+        return 1.0;
+    ramp = std::min(ramp, 0.5 * length);
+    if (ramp <= 0)
+        return t / length;
+    const double v = 1.0 / (length - ramp);  // cruise speed, share per second
+    if (t < ramp)
+        return 0.5 * v / ramp * t * t;
+    if (t <= length - ramp)
+        return v * (t - 0.5 * ramp);
+    const double u = length - t;
+    return 1.0 - 0.5 * v / ramp * u * u;
+}
+
 } // namespace
+
+const char *toString(FlightProfile p)
+{
+    switch (p) {
+    case FlightProfile::Lissajous:
+        return "lissajous";
+    case FlightProfile::Manoeuvre:
+        return "manoeuvre";
+    }
+    return "?";
+}
+
+const std::vector<ManoeuvreSegment> &manoeuvrePlan()
+{
+    // 300 frames at 30 fps. Pan 1: 210 px in 2.5 s with 0.5 s ramps = 3.5 px/frame cruise,
+    // 0.23 px/frame^2. Yaw: 25 deg in 1.3 s with 0.4 s ramps (peak 0.93 deg/frame). Pan 2: (-125, -50) px in
+    // 1.8 s with 0.4 s ramps = 3.2 px/frame. Climb: scale x1.12 in 1.3 s.
+    static const std::vector<ManoeuvreSegment> plan{
+        {"hover", 0.0, 1.0, 0.0, {}},
+        {"pan", 1.0, 3.5, 0.5, {210.0, 0.0, 0.0, 1.0}},
+        {"hover", 3.5, 4.2, 0.0, {}},
+        {"yaw", 4.2, 5.5, 0.4, {0.0, 0.0, radians(25.0), 1.0}},
+        {"hover", 5.5, 5.7, 0.0, {}},
+        {"pan", 5.7, 7.5, 0.4, {-125.0, -50.0, 0.0, 1.0}},
+        {"hover", 7.5, 8.2, 0.0, {}},
+        {"climb", 8.2, 9.5, 0.45, {0.0, 0.0, 0.0, 1.12}},
+        {"hover", 9.5, 10.0, 0.0, {}},
+    };
+    return plan;
+}
 
 std::string defaultCanvasPath()
 {
@@ -64,6 +117,27 @@ ShakyFlight::ShakyFlight(const FlightOptions &options)
     path_phase_y_ = phase(rng);
     rotation_phase_ = phase(rng);
     zoom_phase_ = phase(rng);
+
+    if (options_.profile == FlightProfile::Manoeuvre) {
+        // The same check for the manoeuvre, pose by pose: the rotated, zoomed footprint plus
+        // the shake must stay on the canvas; translations shrink (about the canvas centre)
+        // until every pose fits.
+        const double half_cw = 0.5 * canvas_.cols / base_scale_, half_ch = 0.5 * canvas_.rows / base_scale_;
+        const double angle_margin = radians(4 * (options_.rotation_band_deg + options_.rotation_noise_deg));
+        const double end = manoeuvrePlan().back().to;
+        for (int k = 0; k <= int(std::ceil(end * options_.fps)); ++k) {
+            const Similarity p = manoeuvrePose(std::min(k / options_.fps, end), 1.0);
+            const double a = std::min(std::abs(p.angle) + angle_margin, 0.5 * kPi);
+            const double hw = 0.5 * p.scale * (options_.width * std::cos(a) + options_.height * std::sin(a));
+            const double hh = 0.5 * p.scale * (options_.height * std::cos(a) + options_.width * std::sin(a));
+            const double room_x = std::max(0.0, half_cw - hw - shake * p.scale);
+            const double room_y = std::max(0.0, half_ch - hh - shake * p.scale);
+            if (std::abs(p.dx) > room_x)
+                manoeuvre_shrink_ = std::min(manoeuvre_shrink_, room_x / std::abs(p.dx));
+            if (std::abs(p.dy) > room_y)
+                manoeuvre_shrink_ = std::min(manoeuvre_shrink_, room_y / std::abs(p.dy));
+        }
+    }
 
     auto make_band = [&](double rms) {
         std::vector<Wave> band;
@@ -114,8 +188,27 @@ double ShakyFlight::jitter(const std::vector<Wave> &band, const std::vector<doub
     return v;
 }
 
+Similarity ShakyFlight::manoeuvrePose(double t, double shrink) const
+{
+    Similarity pose{kManoeuvreStartX, kManoeuvreStartY, 0.0, 1.0};
+    for (const ManoeuvreSegment &s : manoeuvrePlan()) {
+        if (t <= s.from)
+            break;
+        const double f = trapezoid(t - s.from, s.to - s.from, s.ramp);
+        pose.dx += f * s.move.dx;
+        pose.dy += f * s.move.dy;
+        pose.angle += f * s.move.angle;
+        pose.scale *= 1.0 + f * (s.move.scale - 1.0);
+    }
+    pose.dx *= shrink;
+    pose.dy *= shrink;
+    return pose;
+}
+
 Similarity ShakyFlight::intendedPose(int i) const
 {
+    if (options_.profile == FlightProfile::Manoeuvre)
+        return manoeuvrePose(i / options_.fps, manoeuvre_shrink_);
     // A Lissajous pan whose speed peaks near pan_speed, a slow yaw, an optional slow zoom.
     const double t = i / options_.fps;
     const double wx = path_amplitude_.x > 0 ? options_.pan_speed * options_.fps / path_amplitude_.x : 0.0;

@@ -3,6 +3,14 @@
 // with UAV-like jitter on top (white noise plus a 2-8 Hz band), optionally with
 // independently moving foreground objects. Tests, the demo and the benchmark use it to
 // compare what the stabilizer did against the truth.
+//
+// Two intended paths (FlightOptions::profile):
+//   Lissajous  (default) a slow Lissajous pan, a slow yaw, an optional slow zoom.
+//   Manoeuvre  what a pilot flies: hover, a pan that accelerates at constant acceleration to
+//              3.5 px/frame, cruises and decelerates to a stop, hover, a 25 degree yaw turn,
+//              a pan in another direction, a stop, a climb (scale +12 %), hover to the end;
+//              every segment is piecewise constant acceleration (manoeuvrePlan()). Meant to
+//              tell deliberate motion from shake: a stabilizer that lags or bends it pays.
 #pragma once
 
 #include <cstdint>
@@ -16,6 +24,29 @@
 
 namespace uavstab::synthetic {
 
+enum class FlightProfile {
+    Lissajous,  // slow Lissajous pan + slow yaw (+ optional zoom): the historical default
+    Manoeuvre,  // hover, accelerating pans, a yaw turn, stops, a climb (see manoeuvrePlan())
+};
+
+const char *toString(FlightProfile p);
+
+// One segment of the manoeuvre flight, in seconds from the start of the clip. From `from`
+// to `to` the intended pose moves from the segment's start pose by `move` (dx, dy in world
+// px, angle in radians, scale as a factor), along a trapezoidal velocity profile: constant
+// acceleration for `ramp` seconds, cruise, constant deceleration for `ramp` seconds
+// (ramp = 0: a hover, `move` is the identity).
+struct ManoeuvreSegment {
+    const char *name;  // "hover", "pan", "yaw", "climb"
+    double from, to, ramp;
+    Similarity move;   // dx, dy: displacement; angle: added; scale: multiplied
+};
+
+// The manoeuvre flight's segments (10 s; after the last one the camera hovers). Translations
+// are for a 640x360 frame and are shrunk (never grown) when the canvas leaves less room;
+// at 640x360 and 1280x720 they are used as they are.
+const std::vector<ManoeuvreSegment> &manoeuvrePlan();
+
 struct FlightOptions {
     int width = 640;
     int height = 360;
@@ -26,7 +57,9 @@ struct FlightOptions {
     // Canvas photograph; empty = the project's tests/data/aero1.jpg.
     std::string canvas;
 
-    // Intended (smooth) motion.
+    // Intended (smooth) motion. The three numbers below shape the Lissajous profile only;
+    // the manoeuvre's are fixed (manoeuvrePlan()). The jitter is the same for both.
+    FlightProfile profile = FlightProfile::Lissajous;
     double pan_speed = 1.5;          // world px per frame, roughly
     double rotation_amplitude_deg = 2.0;
     double zoom_amplitude = 0.0;     // e.g. 0.05: scale drifts within +-5 %
@@ -57,6 +90,13 @@ public:
     // True motion in the stabilizer's convention: frame i -> frame i-1 coordinates.
     Similarity trueMotion(int i) const;
 
+    // Canvas pixels of a world point: canvas = worldToCanvas().apply(world) + canvas centre
+    // ((cols-1)/2, (rows-1)/2), i.e. worldToCanvas() is a pure scale (canvas px per world px).
+    Similarity worldToCanvas() const { return {0.0, 0.0, 0.0, base_scale_}; }
+    cv::Size canvasSize() const { return canvas_.size(); }
+    // Shrink applied to the manoeuvre's translations so that it fits the canvas (1 = none).
+    double manoeuvreShrink() const { return manoeuvre_shrink_; }
+
     cv::Mat renderBgr(int i) const;
     FrameBuffer render(int i, int row_padding = 0) const;
 
@@ -70,6 +110,7 @@ private:
         cv::Point2d velocity;  // world px per frame
     };
     double jitter(const std::vector<Wave> &band, const std::vector<double> &noise, int i) const;
+    Similarity manoeuvrePose(double t, double shrink) const;
 
     FlightOptions options_;
     cv::Mat canvas_;
@@ -79,6 +120,7 @@ private:
     std::vector<Wave> band_x_, band_y_, band_angle_;
     std::vector<double> noise_x_, noise_y_, noise_angle_;
     std::vector<MovingObject> objects_;
+    double manoeuvre_shrink_ = 1.0;
 };
 
 } // namespace uavstab::synthetic
