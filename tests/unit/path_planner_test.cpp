@@ -114,12 +114,13 @@ TEST(BandedBoxQp, SolutionsMeetTheOptimalityConditions)
             for (std::size_t j = 0; j < n; ++j)
                 gradient += q[i][j] * result.x[j];
             const double tol = 1e-7;
-            if (x > lo[i] + 1e-9 && x < hi[i] - 1e-9)
+            if (x > lo[i] + 1e-9 && x < hi[i] - 1e-9) {
                 EXPECT_NEAR(gradient, 0.0, tol) << "free variable " << i << " of trial " << trial;
-            else if (x <= lo[i] + 1e-9 && hi[i] > lo[i])
+            } else if (x <= lo[i] + 1e-9 && hi[i] > lo[i]) {
                 EXPECT_GE(gradient, -tol) << "variable " << i << " at its lower bound, trial " << trial;
-            else if (hi[i] > lo[i])
+            } else if (hi[i] > lo[i]) {
                 EXPECT_LE(gradient, tol) << "variable " << i << " at its upper bound, trial " << trial;
+            }
         }
     }
 }
