@@ -96,6 +96,8 @@ namespace {
 
 // Metas that only describe content (no tags, or just "video"/"colorspace") stay true
 // after a geometric transform; anything tied to memory, size or orientation does not.
+// (Regions of interest are mapped through the warp instead, and an earlier
+// GstUavStabMeta replaced: uavstab_meta.cpp, from the src pad task.)
 gboolean copySafeMeta(GstBuffer *input, GstMeta **meta, gpointer user_data)
 {
     auto *output = static_cast<GstBuffer *>(user_data);

@@ -1,12 +1,16 @@
-// Plugin registration: one element, uavstabilize.
+// Plugin registration: one element, uavstabilize, and its meta, GstUavStabMeta.
 #include <gst/gst.h>
 
 #include "gstuavstabilize.hpp"
+#include "uavstab_meta.hpp"
 
 namespace {
 
 gboolean pluginInit(GstPlugin *plugin)
 {
+    // The meta first: applications find it by name once the plugin is loaded.
+    if (!gstuavstab::registerStabMeta())
+        return FALSE;
     return GST_ELEMENT_REGISTER(uavstabilize, plugin);
 }
 

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "frame_statistics.hpp"
+#include "uavstab_meta.hpp"
 #include "uavstabilize_element.hpp"
 
 #define GST_CAT_DEFAULT gst_uav_stabilize_debug
@@ -38,10 +39,14 @@ void reportFailedFrame(GstUavStabilize *self, UavStabilizeState &s, const std::s
 GstFlowReturn pushFrame(GstUavStabilize *self, UavStabilizeState &s, uavstab::StabilizedFrame &frame)
 {
     auto &slot = static_cast<GstFrameSlot &>(*frame.slot);
+    const int width = slot.input().width, height = slot.input().height;
     GstBuffer *buffer = nullptr;
     switch (frame.outcome) {
     case uavstab::Outcome::Warped:
         buffer = slot.releaseOutput();
+        // Regions of interest (detections upstream) follow the warp.
+        if (buffer)
+            mapRegionsOfInterest(slot.inputBuffer(), buffer, frame.stats.output_to_input, width, height);
         break;
     case uavstab::Outcome::Bypassed:
         break;
@@ -53,8 +58,10 @@ GstFlowReturn pushFrame(GstUavStabilize *self, UavStabilizeState &s, uavstab::St
         reportFailedFrame(self, s, frame.error);
         break;
     }
+    const bool warped = buffer != nullptr;
     if (!buffer)
         buffer = slot.releaseInput();  // bypass or pass-through: the input, untouched
+    buffer = attachStabMeta(buffer, frame, width, height, warped);
     if (postMessagesEnabled(self))
         postStatistics(self, s, frame, GST_BUFFER_PTS(buffer));
     frame.slot.reset();  // unmaps and lets go of the input before it goes downstream
