@@ -100,10 +100,14 @@ std::vector<double> fitAxis(const std::vector<double> &reference, const std::vec
 }
 
 // Line through the newest `count` values of `values` (oldest first), extrapolated
-// `ahead` steps past the newest.
-double extrapolate(const std::vector<double> &values, std::size_t count, int ahead)
+// `ahead` steps past the newest. While fewer than `count` values are known (a young
+// segment) the slope is pulled towards zero, by a prior worth `prior` squared frames that
+// fades as values arrive: a slope fitted to a few shaken frames is mostly shake, and a
+// smooth path that set off along it would take a second to come back.
+double extrapolate(const std::vector<double> &values, std::size_t count, int ahead, double prior)
 {
     const std::size_t n = values.size();
+    const double young = count > 0 ? std::max(0.0, 1.0 - double(n) / double(count)) : 0.0;
     count = std::min(count, n);
     if (count < 2)
         return values.back();
@@ -117,7 +121,7 @@ double extrapolate(const std::vector<double> &values, std::size_t count, int ahe
         v0 += v;
         v1 += t * v;
     }
-    const double det = s0 * s2 - s1 * s1;
+    const double det = s0 * (s2 + prior * young) - s1 * s1;
     const double slope = (s0 * v1 - s1 * v0) / det;
     const double intercept = (v0 - slope * s1) / s0;
     return intercept + slope * ahead;
@@ -181,7 +185,8 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
             series.push_back(paramsOf(s)[a] - origin[a]);
         camera[a].assign(series.end() - long(known), series.end());
         for (int k = 1; k <= settings_.extension; ++k)
-            camera[a].push_back(extrapolate(series, std::size_t(settings_.prediction_frames), k));
+            camera[a].push_back(
+                extrapolate(series, std::size_t(settings_.prediction_frames), k, settings_.young_slope_prior));
         for (const Params &p : past_reference_)
             history[a].push_back(p[a] - origin[a]);
         // Stage 1: where the camera means to go.

@@ -63,6 +63,9 @@ public:
         double zoom_speed = 0.001;
         int extension = 20;            // extrapolated frames after the look-ahead
         int prediction_frames = 20;    // frames the extrapolation is fitted to
+        // Pull of the extrapolation's slope towards zero at a segment's start (squared
+        // frames), fading out over its first prediction_frames frames.
+        double young_slope_prior = 30.0;
     };
     static constexpr int kHistory = 3;  // frames the differences run on from
 
