@@ -398,6 +398,7 @@ struct Metrics {
     // geometry from the registered output -> input
     double coverage_mean = kNaN, coverage_min = kNaN, zoom_mean = kNaN, zoom_max = kNaN, distortion_max = kNaN;
     double coverage_stats_mean = kNaN, coverage_stats_min = kNaN, zoom_stats = kNaN;
+    double zoom_stats_max = kNaN;  // crop zoom times the correction's scale, max over frames (FrameStats)
     // real-clip measures
     double stability_t = kNaN, stability_r = kNaN, itf = kNaN;
     std::vector<FrameStats> stats;
@@ -499,6 +500,9 @@ Metrics analyze(const Clip &clip, const std::vector<Features> &input_features, c
         m.coverage_stats_mean = mean(cov);
         m.coverage_stats_min = minOf(cov);
         m.zoom_stats = out.stats.front().zoom;
+        m.zoom_stats_max = 0;
+        for (std::size_t i = 0; i < n; ++i)
+            m.zoom_stats_max = std::max(m.zoom_stats_max, 1.0 / out.stats[i].output_to_input.scale);
         m.stats = out.stats;
     }
 
@@ -933,7 +937,7 @@ Table crossCheckTable(const std::vector<ClipResult> &results, const std::vector<
     if (with_path)
         header.push_back("error vs intended registered / own px");
     for (const char *h : {"RMS corner gap registered vs FrameStats px (mean, max over clips)",
-                          "coverage from FrameStats mean / min", "zoom"})
+                          "coverage from FrameStats mean / min", "crop zoom (max with scale correction)"})
         header.push_back(h);
     Table t(header);
     for (const Method &m : ms) {
@@ -953,7 +957,8 @@ Table crossCheckTable(const std::vector<ClipResult> &results, const std::vector<
                       num(maxOf(collect(results, m.key, &Metrics::crosscheck_px)), "%.3f") + ")");
         row.push_back(num(mean(collect(results, m.key, &Metrics::coverage_stats_mean)), "%.4f") + " / " +
                       num(minOf(collect(results, m.key, &Metrics::coverage_stats_min)), "%.4f"));
-        row.push_back(num(minOf(zoom), "%.3f") + (maxOf(zoom) > minOf(zoom) + 5e-4 ? num(maxOf(zoom), "-%.3f") : ""));
+        row.push_back(num(minOf(zoom), "%.3f") + (maxOf(zoom) > minOf(zoom) + 5e-4 ? num(maxOf(zoom), "-%.3f") : "") +
+                      " (" + num(maxOf(collect(results, m.key, &Metrics::zoom_stats_max)), "%.3f") + ")");
         t.row(row);
     }
     return t;

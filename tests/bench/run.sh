@@ -2,7 +2,7 @@
 # The benchmark of uavstabilize: throughput, latency, memory and quality of the library and
 # the GStreamer element, beside ffmpeg's deshake and vid.stab on the same frames.
 #
-#   bash tests/bench/run.sh            # full run (~25 min on 2 cores); updates tests/bench/REPORT.md + PNGs
+#   bash tests/bench/run.sh            # full run (~30 min on 2 cores, quality ~8-10 of it); updates tests/bench/REPORT.md + PNGs
 #   bash tests/bench/run.sh --quick    # fewer runs/resolutions/clips (~3-5 min); report in the out dir only
 #
 # Options: --out DIR (default build-bench/bench-out), --no-wait (do not wait for a quiet
