@@ -53,8 +53,9 @@ public:
         double stiffness = 1.0;        // stage 2: how far a change spreads to its neighbours
         // Share of the crop margin kept for translation when the angle is fitted.
         double translation_reserve = 0.5;
-        // Share of the crop zoom's log that a scale difference may use.
-        double scale_share = 0.25;
+        // Share of the crop zoom's log that a scale difference may use (0.12: 1 % at crop 0.08,
+        // so zoom and scale together stay under 1.10).
+        double scale_share = 0.12;
         // Adaptive zoom: beyond the crop's zoom, zoom in as far and as early as the look-ahead
         // shows stage 1's path needs (so stage 2 need not bend it), up to max_zoom, changing
         // by at most zoom_speed per frame in and a quarter of that out.
