@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -180,7 +181,80 @@ bool cpuHasAvx2()
 
 #endif // UAVSTAB_HAVE_X86
 
+template <bool Swap>
+inline std::uint16_t load16(const std::uint8_t *p)
+{
+    std::uint16_t v;
+    std::memcpy(&v, p, 2);
+    return Swap ? std::uint16_t((v >> 8) | (v << 8)) : v;
+}
+
+template <bool Swap>
+inline void store16(std::uint8_t *p, std::uint16_t v)
+{
+    if (Swap)
+        v = std::uint16_t((v >> 8) | (v << 8));
+    std::memcpy(p, &v, 2);
+}
+
+template <bool Swap>
+void warpRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin, int row_end,
+                const double m[6], bool replicate, std::uint16_t border)
+{
+    const auto at = [&](long x, long y) { return load16<Swap>(src.data + y * src.stride + x * 2); };
+    const auto tap = [&](long x, long y) -> double {
+        if (x >= 0 && y >= 0 && x < src.width && y < src.height)
+            return at(x, y);
+        if (!replicate)
+            return border;
+        return at(std::clamp(x, 0L, long(src.width) - 1), std::clamp(y, 0L, long(src.height) - 1));
+    };
+    for (int y = row_begin; y < row_end; ++y) {
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        const double row_x = m[1] * y + m[2], row_y = m[4] * y + m[5];
+        for (int x = 0; x < dst_width; ++x) {
+            double sx = m[0] * x + row_x, sy = m[3] * x + row_y;
+            if (std::isnan(sx) || std::isnan(sy)) {
+                store16<Swap>(out + 2 * x, border);
+                continue;
+            }
+            // Far outside is as good as just outside (keeps the integer maths in range).
+            sx = std::clamp(sx, -2.0, src.width + 1.0);
+            sy = std::clamp(sy, -2.0, src.height + 1.0);
+            const double fx0 = std::floor(sx), fy0 = std::floor(sy);
+            const double fx = sx - fx0, fy = sy - fy0;
+            const long ix = long(fx0), iy = long(fy0);
+            double p00, p01, p10, p11;
+            if (ix >= 0 && iy >= 0 && ix + 1 < src.width && iy + 1 < src.height) {
+                const std::uint8_t *top = src.data + iy * src.stride + ix * 2;
+                p00 = load16<Swap>(top);
+                p01 = load16<Swap>(top + 2);
+                p10 = load16<Swap>(top + src.stride);
+                p11 = load16<Swap>(top + src.stride + 2);
+            } else {
+                p00 = tap(ix, iy);
+                p01 = tap(ix + 1, iy);
+                p10 = tap(ix, iy + 1);
+                p11 = tap(ix + 1, iy + 1);
+            }
+            const double t = p00 + (p01 - p00) * fx;
+            const double b = p10 + (p11 - p10) * fx;
+            const double v = t + (b - t) * fy;
+            store16<Swap>(out + 2 * x, std::uint16_t(std::clamp(std::floor(v + 0.5), 0.0, 65535.0)));
+        }
+    }
+}
+
 } // namespace
+
+void warpPlaneBilinear16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                         int row_end, const double m[6], bool replicate, std::uint16_t border, bool swap)
+{
+    if (swap)
+        warpRows16<true>(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
+    else
+        warpRows16<false>(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
+}
 
 bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                        int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4])

@@ -89,6 +89,12 @@ void FrameWarper::warpRows(const FrameView &in, const FrameView &out, const Simi
         const std::uint8_t border_value[4] = {std::uint8_t(black[0]), std::uint8_t(black[1]), std::uint8_t(black[2]),
                                               std::uint8_t(black[3])};
         const PlaneSpan span{in.planes[p].data, in.planes[p].stride, in.planeWidth(p), in.planeHeight(p)};
+        if (layout.bytes_per_sample == 2) {
+            // 16-bit samples at full depth, in their own byte order (black is 0).
+            warpPlaneBilinear16(span, out.planes[p].data, out.planes[p].stride, out.planeWidth(p), y0, y1, m,
+                                border_ == BorderMode::Replicate, 0, needsByteSwap(in.format));
+            continue;
+        }
         if (warpPlaneBilinear(span, out.planes[p].data, out.planes[p].stride, out.planeWidth(p), y0, y1,
                               layout.channels, m, border_ == BorderMode::Replicate, border_value))
             continue;
