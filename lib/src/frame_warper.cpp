@@ -81,8 +81,6 @@ void FrameWarper::warpRows(const FrameView &in, const FrameView &out, const Simi
         const int y1 = row_end == in.height ? in.planeHeight(p) : row_end / layout.subsample_y;
         if (y1 <= y0)
             continue;
-        const cv::Mat src = planeMat(in, p);
-        cv::Mat dst = planeMat(out, p).rowRange(y0, y1);
         double m[6];
         planeMatrix(in, p, output_to_input, m);
         const cv::Scalar black = blackFor(in.format, p);
@@ -99,6 +97,8 @@ void FrameWarper::warpRows(const FrameView &in, const FrameView &out, const Simi
                               layout.channels, m, border_ == BorderMode::Replicate, border_value))
             continue;
         // General path. The stripe's first row is row y0 of the plane: shift the mapping.
+        const cv::Mat src = planeMat(in, p);
+        cv::Mat dst = planeMat(out, p).rowRange(y0, y1);
         m[2] += m[1] * y0;
         m[5] += m[4] * y0;
         const cv::Mat matrix(2, 3, CV_64F, m);

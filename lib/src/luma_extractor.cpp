@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -9,6 +10,7 @@ namespace uavstab {
 
 cv::Mat planeMat(const FrameView &frame, int plane)
 {
+    // (16-bit: the stride must be even, as cv::Mat requires; see LumaExtractor::extract16.)
     const PlaneLayout layout = planeLayout(frame.format, plane);
     const int depth = layout.bytes_per_sample == 2 ? CV_16U : CV_8U;
     return cv::Mat(frame.planeHeight(plane), frame.planeWidth(plane), CV_MAKETYPE(depth, layout.channels),
@@ -109,16 +111,26 @@ cv::Size LumaExtractor::analysisSize(int width, int height, int analysis_width)
 
 const cv::Mat &LumaExtractor::extract16(const FrameView &frame, cv::Size size)
 {
-    cv::Mat samples = planeMat(frame, 0);
-    if (needsByteSwap(frame.format)) {
-        swapped_.create(samples.size(), CV_16UC1);
-        for (int y = 0; y < samples.rows; ++y) {
-            const std::uint16_t *in = samples.ptr<std::uint16_t>(y);
+    const Plane &plane = frame.planes[0];
+    const bool swap = needsByteSwap(frame.format);
+    const bool aligned =
+        plane.stride % 2 == 0 && reinterpret_cast<std::uintptr_t>(plane.data) % alignof(std::uint16_t) == 0;
+    cv::Mat samples;
+    if (swap || !aligned) {
+        // Samples in the other byte order, or not at 16-bit boundaries (an odd stride):
+        // copied once, in host order, to an aligned image.
+        swapped_.create(frame.height, frame.width, CV_16UC1);
+        for (int y = 0; y < frame.height; ++y) {
+            const std::uint8_t *in = plane.data + std::size_t(y) * std::size_t(plane.stride);
             std::uint16_t *out = swapped_.ptr<std::uint16_t>(y);
-            for (int x = 0; x < samples.cols; ++x)
-                out[x] = std::uint16_t((in[x] >> 8) | (in[x] << 8));
+            std::memcpy(out, in, std::size_t(frame.width) * 2);
+            if (swap)
+                for (int x = 0; x < frame.width; ++x)
+                    out[x] = std::uint16_t((out[x] >> 8) | (out[x] << 8));
         }
         samples = swapped_;
+    } else {
+        samples = planeMat(frame, 0);
     }
     if (samples.size() != size) {
         downscale(samples, luma16_, size);
