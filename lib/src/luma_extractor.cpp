@@ -33,9 +33,10 @@ AutoGain::Limits AutoGain::update(const cv::Mat &image)
     const double area = double(image.rows) * image.cols;
     const int step = std::max(1, int(std::floor(std::sqrt(area / kSampleTarget))));
     samples_.clear();
-    for (int y = step / 2; y < image.rows; y += step) {
+    // (Starting inside the image even when it is thinner than a step.)
+    for (int y = std::min(step / 2, image.rows - 1); y < image.rows; y += step) {
         const std::uint16_t *row = image.ptr<std::uint16_t>(y);
-        for (int x = step / 2; x < image.cols; x += step)
+        for (int x = std::min(step / 2, image.cols - 1); x < image.cols; x += step)
             samples_.push_back(row[x]);
     }
     const std::size_t n = samples_.size();

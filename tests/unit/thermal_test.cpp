@@ -245,6 +245,9 @@ TEST(Thermal, AutoGainStartsAtThePercentilesAndIgnoresNoise)
         EXPECT_EQ(l.low, first.low);
         EXPECT_EQ(l.high, first.high);
     }
+    // A frame one row high and far wider than a sampling step is still sampled.
+    AutoGain thin;
+    EXPECT_NEAR(thin.update(flat16(100000, 1, 20000)).low, 20000 - AutoGain::kMinSpan / 2, 1e-9);
     // A flat frame is not stretched beyond kMinSpan counts over 256 levels.
     AutoGain flat;
     const AutoGain::Limits f = flat.update(flat16(50, 40, 51234));
