@@ -49,7 +49,7 @@ namespace {
 
 #define UAVSTABILIZE_CAPS                                                                                     \
     "video/x-raw, "                                                                                           \
-    "format = (string) { I420, YV12, NV12, NV21, GRAY8, RGB, BGR, RGBA, BGRA, RGBx, BGRx }, "                \
+    "format = (string) { I420, YV12, NV12, NV21, GRAY8, RGB, BGR, RGBA, BGRA, RGBx, BGRx, GRAY16_LE, GRAY16_BE }, " \
     "width = (int) [ 16, MAX ], height = (int) [ 16, MAX ], framerate = (fraction) [ 0/1, MAX ], "              \
     "interlace-mode = (string) progressive"
 

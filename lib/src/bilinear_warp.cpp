@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -180,7 +181,114 @@ bool cpuHasAvx2()
 
 #endif // UAVSTAB_HAVE_X86
 
+template <bool Swap>
+inline std::uint16_t load16(const std::uint8_t *p)
+{
+    std::uint16_t v;
+    std::memcpy(&v, p, 2);
+    return Swap ? std::uint16_t((v >> 8) | (v << 8)) : v;
+}
+
+template <bool Swap>
+inline void store16(std::uint8_t *p, std::uint16_t v)
+{
+    if (Swap)
+        v = std::uint16_t((v >> 8) | (v << 8));
+    std::memcpy(p, &v, 2);
+}
+
+template <bool Swap>
+void warpRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin, int row_end,
+                const double m[6], bool replicate, std::uint16_t border)
+{
+    const auto at = [&](long x, long y) { return load16<Swap>(src.data + y * src.stride + x * 2); };
+    const auto tap = [&](long x, long y) -> double {
+        if (x >= 0 && y >= 0 && x < src.width && y < src.height)
+            return at(x, y);
+        if (!replicate)
+            return border;
+        return at(std::clamp(x, 0L, long(src.width) - 1), std::clamp(y, 0L, long(src.height) - 1));
+    };
+    const double max_x = src.width + 1.0, max_y = src.height + 1.0;
+    // Any pixel: taps outside the frame read the border or the nearest edge sample.
+    const auto general = [&](std::uint8_t *out, double sx, double sy) {
+        if (!(sx >= -2.0 && sy >= -2.0 && sx <= max_x && sy <= max_y)) {
+            if (std::isnan(sx) || std::isnan(sy)) {
+                store16<Swap>(out, border);
+                return;
+            }
+            // Far outside is as good as just outside (keeps the integer maths in range).
+            sx = std::clamp(sx, -2.0, max_x);
+            sy = std::clamp(sy, -2.0, max_y);
+        }
+        // Truncation of a positive number is its floor (std::floor is a call on plain x86-64).
+        const long ix = long(sx + 2.0) - 2, iy = long(sy + 2.0) - 2;
+        const double fx = sx - double(ix), fy = sy - double(iy);
+        const double p00 = tap(ix, iy), p01 = tap(ix + 1, iy), p10 = tap(ix, iy + 1), p11 = tap(ix + 1, iy + 1);
+        const double t = p00 + (p01 - p00) * fx;
+        const double b = p10 + (p11 - p10) * fx;
+        const double v = t + (b - t) * fy;
+        // v lies between the taps (>= 0): truncating v + 0.5 rounds to the nearest count.
+        store16<Swap>(out, std::uint16_t(std::min(long(v + 0.5), 65535L)));
+    };
+    // Output columns [lo, hi) of a row whose source lies in [0, limit - 1) along one axis
+    // (s = a * x + c), a little inside so that rounding cannot take a tap out.
+    const auto inside = [dst_width](double a, double c, int limit, int &lo, int &hi) {
+        constexpr double kEps = 1e-6;
+        const double low = kEps, high = limit - 1 - kEps;
+        if (high < low) {
+            lo = hi = 0;
+            return;
+        }
+        if (a == 0.0) {
+            if (!(c >= low && c <= high))
+                lo = hi = 0;
+            return;
+        }
+        double x0 = (low - c) / a, x1 = (high - c) / a;
+        if (x0 > x1)
+            std::swap(x0, x1);
+        lo = std::max(lo, int(std::clamp(std::ceil(x0), 0.0, double(dst_width))));
+        hi = std::min(hi, int(std::clamp(std::floor(x1) + 1.0, 0.0, double(dst_width))));
+    };
+    for (int y = row_begin; y < row_end; ++y) {
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        const double row_x = m[1] * y + m[2], row_y = m[4] * y + m[5];
+        int lo = 0, hi = dst_width;
+        inside(m[0], row_x, src.width, lo, hi);
+        inside(m[3], row_y, src.height, lo, hi);
+        if (hi < lo)
+            hi = lo;
+        for (int x = 0; x < lo; ++x)
+            general(out + 2 * x, m[0] * x + row_x, m[3] * x + row_y);
+        // Every tap inside: no checks. The same arithmetic as general().
+        for (int x = lo; x < hi; ++x) {
+            const double sx = m[0] * x + row_x, sy = m[3] * x + row_y;
+            const long ix = long(sx), iy = long(sy);
+            const double fx = sx - double(ix), fy = sy - double(iy);
+            const std::uint8_t *top = src.data + iy * src.stride + ix * 2;
+            const double p00 = load16<Swap>(top), p01 = load16<Swap>(top + 2);
+            const double p10 = load16<Swap>(top + src.stride), p11 = load16<Swap>(top + src.stride + 2);
+            const double t = p00 + (p01 - p00) * fx;
+            const double b = p10 + (p11 - p10) * fx;
+            const double v = t + (b - t) * fy;
+            store16<Swap>(out + 2 * x, std::uint16_t(std::min(long(v + 0.5), 65535L)));
+        }
+        for (int x = std::max(hi, lo); x < dst_width; ++x)
+            general(out + 2 * x, m[0] * x + row_x, m[3] * x + row_y);
+    }
+}
+
 } // namespace
+
+void warpPlaneBilinear16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                         int row_end, const double m[6], bool replicate, std::uint16_t border, bool swap)
+{
+    if (swap)
+        warpRows16<true>(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
+    else
+        warpRows16<false>(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
+}
 
 bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                        int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4])

@@ -25,4 +25,13 @@ struct PlaneSpan {
 bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                        int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4]);
 
+// The same for one plane of 16-bit samples (one channel), at full depth: taps weighted in
+// double precision and the result rounded to the nearest integer, so that an integer
+// position reproduces its sample exactly and nothing is clipped or rescaled (a bilinear
+// value lies between its taps). Samples are read and written byte-swapped when `swap`
+// (the plane's byte order is not the host's). Taps outside the frame read `border` or,
+// with `replicate`, the nearest edge sample. Handles every transform.
+void warpPlaneBilinear16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                         int row_end, const double m[6], bool replicate, std::uint16_t border, bool swap);
+
 } // namespace uavstab

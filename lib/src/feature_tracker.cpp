@@ -71,6 +71,7 @@ void FeatureTracker::reset()
     impl_->has_previous = false;
     impl_->tracks.clear();
     impl_->track_age = 0;
+    impl_->luma.reset();  // 16-bit frames: the automatic gain starts afresh too
 }
 
 void FeatureTracker::setConfig(const StabilizerConfig &config)

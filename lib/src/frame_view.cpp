@@ -16,7 +16,8 @@ int FrameView::planeHeight(int plane) const
 
 int FrameView::planeRowBytes(int plane) const
 {
-    return planeWidth(plane) * planeLayout(format, plane).channels;
+    const PlaneLayout layout = planeLayout(format, plane);
+    return planeWidth(plane) * layout.channels * layout.bytes_per_sample;
 }
 
 bool FrameView::valid() const

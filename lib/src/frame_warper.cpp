@@ -81,18 +81,24 @@ void FrameWarper::warpRows(const FrameView &in, const FrameView &out, const Simi
         const int y1 = row_end == in.height ? in.planeHeight(p) : row_end / layout.subsample_y;
         if (y1 <= y0)
             continue;
-        const cv::Mat src = planeMat(in, p);
-        cv::Mat dst = planeMat(out, p).rowRange(y0, y1);
         double m[6];
         planeMatrix(in, p, output_to_input, m);
         const cv::Scalar black = blackFor(in.format, p);
         const std::uint8_t border_value[4] = {std::uint8_t(black[0]), std::uint8_t(black[1]), std::uint8_t(black[2]),
                                               std::uint8_t(black[3])};
         const PlaneSpan span{in.planes[p].data, in.planes[p].stride, in.planeWidth(p), in.planeHeight(p)};
+        if (layout.bytes_per_sample == 2) {
+            // 16-bit samples at full depth, in their own byte order (black is 0).
+            warpPlaneBilinear16(span, out.planes[p].data, out.planes[p].stride, out.planeWidth(p), y0, y1, m,
+                                border_ == BorderMode::Replicate, 0, needsByteSwap(in.format));
+            continue;
+        }
         if (warpPlaneBilinear(span, out.planes[p].data, out.planes[p].stride, out.planeWidth(p), y0, y1,
                               layout.channels, m, border_ == BorderMode::Replicate, border_value))
             continue;
         // General path. The stripe's first row is row y0 of the plane: shift the mapping.
+        const cv::Mat src = planeMat(in, p);
+        cv::Mat dst = planeMat(out, p).rowRange(y0, y1);
         m[2] += m[1] * y0;
         m[5] += m[4] * y0;
         const cv::Mat matrix(2, 3, CV_64F, m);

@@ -6,11 +6,12 @@
 namespace uavstab {
 
 namespace {
-constexpr std::array<std::pair<PixelFormat, std::string_view>, 11> kNames{{
+constexpr std::array<std::pair<PixelFormat, std::string_view>, 13> kNames{{
     {PixelFormat::Gray8, "GRAY8"}, {PixelFormat::I420, "I420"}, {PixelFormat::YV12, "YV12"},
     {PixelFormat::NV12, "NV12"},   {PixelFormat::NV21, "NV21"}, {PixelFormat::RGB, "RGB"},
     {PixelFormat::BGR, "BGR"},     {PixelFormat::RGBA, "RGBA"}, {PixelFormat::BGRA, "BGRA"},
-    {PixelFormat::RGBx, "RGBx"},   {PixelFormat::BGRx, "BGRx"},
+    {PixelFormat::RGBx, "RGBx"},   {PixelFormat::BGRx, "BGRx"}, {PixelFormat::Gray16LE, "GRAY16_LE"},
+    {PixelFormat::Gray16BE, "GRAY16_BE"},
 }};
 } // namespace
 
@@ -33,6 +34,9 @@ PlaneLayout planeLayout(PixelFormat format, int plane)
     switch (format) {
     case PixelFormat::Gray8:
         return {1, 1, 1};
+    case PixelFormat::Gray16LE:
+    case PixelFormat::Gray16BE:
+        return {1, 1, 1, 2};
     case PixelFormat::I420:
     case PixelFormat::YV12:
         return plane == 0 ? PlaneLayout{1, 1, 1} : PlaneLayout{1, 2, 2};
@@ -58,6 +62,16 @@ bool isYuv(PixelFormat format)
     default:
         return false;
     }
+}
+
+bool is16Bit(PixelFormat format)
+{
+    return format == PixelFormat::Gray16LE || format == PixelFormat::Gray16BE;
+}
+
+bool isBigEndian(PixelFormat format)
+{
+    return format == PixelFormat::Gray16BE;
 }
 
 RgbOrder rgbOrder(PixelFormat format)

@@ -39,6 +39,8 @@ void bgrToFrame(const cv::Mat &bgr, FrameBuffer &frame)
     if (bgr.type() != CV_8UC3 || bgr.cols != frame.width() || bgr.rows != frame.height())
         throw std::invalid_argument("bgrToFrame: need CV_8UC3 of the frame's size");
     const PixelFormat format = frame.format();
+    if (is16Bit(format))
+        throw std::invalid_argument("bgrToFrame: 16-bit frames are rendered by thermal.hpp");
     const int w = frame.width(), h = frame.height();
 
     if (format == PixelFormat::Gray8 || isYuv(format)) {
@@ -101,6 +103,8 @@ void bgrToFrame(const cv::Mat &bgr, FrameBuffer &frame)
 
 cv::Mat frameLuma(const FrameView &frame)
 {
+    if (is16Bit(frame.format))
+        throw std::invalid_argument("frameLuma: not for 16-bit frames");
     const int channels = planeLayout(frame.format, 0).channels;
     cv::Mat plane(frame.height, frame.width, CV_8UC(channels), frame.planes[0].data, std::size_t(frame.planes[0].stride));
     if (channels == 1)
@@ -114,6 +118,8 @@ cv::Mat frameLuma(const FrameView &frame)
 
 cv::Mat frameToBgr(const FrameView &frame)
 {
+    if (is16Bit(frame.format))
+        throw std::invalid_argument("frameToBgr: not for 16-bit frames");
     cv::Mat out(frame.height, frame.width, CV_8UC3);
     const auto at = [&](int plane, int x, int y) {
         return frame.planes[plane].data[std::size_t(y) * frame.planes[plane].stride + x];

@@ -24,7 +24,7 @@ struct FrameView {
     int planeCount() const { return uavstab::planeCount(format); }
     int planeWidth(int plane) const;
     int planeHeight(int plane) const;
-    // Bytes of a plane's row that hold pixels (width x channels).
+    // Bytes of a plane's row that hold pixels (width x channels x bytes per sample).
     int planeRowBytes(int plane) const;
 
     // True when every plane has data and a stride wide enough for its rows.
