@@ -33,7 +33,8 @@ private:
 
 constexpr PixelFormat kFormats[] = {PixelFormat::Gray8, PixelFormat::I420, PixelFormat::YV12, PixelFormat::NV12,
                                     PixelFormat::NV21,  PixelFormat::RGB,  PixelFormat::BGR,  PixelFormat::RGBA,
-                                    PixelFormat::BGRA,  PixelFormat::RGBx, PixelFormat::BGRx};
+                                    PixelFormat::BGRA,  PixelFormat::RGBx, PixelFormat::BGRx, PixelFormat::Gray16LE,
+                                    PixelFormat::Gray16BE};
 
 class FuzzSlot : public FrameSlot {
 public:
