@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <deque>
+#include <iterator>
 #include <memory>
 
 #include "uavstab/frame_buffer.hpp"
@@ -111,7 +112,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     config.redetect_interval = b.range(1, 8);
     config.roi = b.range(10, 100) / 100.0;
 
-    PixelFormat format = kFormats[b.range(0, 10)];
+    PixelFormat format = kFormats[b.range(0, int(std::size(kFormats)) - 1)];
     int w = b.range(1, 96), h = b.range(1, 72);
     const int padding = b.range(0, 9);
 
@@ -151,7 +152,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
             break;
         }
         case 4:  // new geometry mid-stream
-            format = kFormats[b.range(0, 10)];
+            format = kFormats[b.range(0, int(std::size(kFormats)) - 1)];
             w = b.range(1, 96);
             h = b.range(1, 72);
             break;
