@@ -165,6 +165,22 @@ bool OutputChannel::finishPush(GstFlowReturn ret)
     return eos_queued_;
 }
 
+bool OutputChannel::finishEos()
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    pushing_ = false;
+    changed_.notify_all();
+    if (!queue_.empty()) {
+        // After EOS the sink pad takes nothing but STREAM_START (or a flush, which empties
+        // the queue), so what is queued is a new stream: go on with it.
+        eos_queued_ = queue_.holdsEvent(GST_EVENT_EOS);
+        return true;
+    }
+    if (!flushing_)
+        last_flow_ = GST_FLOW_EOS;
+    return false;
+}
+
 void OutputChannel::abortPush()
 {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -6,7 +6,7 @@
 //   streaming thread     flow, queueFrameWhenRoom, waitForRoom, queueEvent,
 //                        waitUntilDrained, replacePool, stopFlushing (FLUSH_STOP),
 //                        recordError, acquireBuffer (through the frame slots)
-//   src pad task         takeNext, finishPush, abortPush
+//   src pad task         takeNext, finishPush, finishEos, abortPush
 //   flushing threads     startFlushing (FLUSH_START, pad deactivation)
 //   worker threads       notify (a warp is done)
 //   state changes        activate (src pad going active), clear and replacePool
@@ -81,6 +81,11 @@ public:
     // The push returned `ret` (remembered unless OK or flushing). True when upstream
     // had already sent EOS, so that no chain call will see a flow error.
     bool finishPush(GstFlowReturn ret);
+    // The task pushed EOS: data stops (flow EOS) until FLUSH_STOP or a new stream, whose
+    // STREAM_START restarts the task (queueEvent). True when a new stream is queued
+    // behind the EOS already (its STREAM_START came before the EOS went out): the task
+    // goes on with it.
+    bool finishEos();
     // The push failed with an exception: data stops with GST_FLOW_ERROR.
     void abortPush();
 

@@ -26,6 +26,13 @@ public:
     std::size_t size() const { return items_.size(); }
     bool frontIsFrame() const { return !items_.empty() && !items_.front(); }
     bool frontIsEvent() const { return !items_.empty() && items_.front(); }
+    bool holdsEvent(GstEventType type) const
+    {
+        for (const EventPtr &item : items_)
+            if (item && GST_EVENT_TYPE(item.get()) == type)
+                return true;
+        return false;
+    }
 
     void popFrame() { items_.pop_front(); }
     EventPtr popEvent()

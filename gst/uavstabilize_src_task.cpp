@@ -85,8 +85,15 @@ void runOutputStep(GstUavStabilize *self, UavStabilizeState &s)
             gst_event_copy_segment(event.get(), &s.output_segment);
         GST_LOG_OBJECT(self, "pushing %" GST_PTR_FORMAT, event.get());
         gst_pad_push_event(self->srcpad, event.release());
-        if (type == GST_EVENT_EOS)
-            ret = GST_FLOW_EOS;  // nothing follows EOS until FLUSH_STOP or STREAM_START
+        if (type == GST_EVENT_EOS) {
+            // Nothing follows EOS until FLUSH_STOP or STREAM_START, unless a new stream
+            // was queued behind it before it went out.
+            if (s.output.finishEos())
+                return;
+            GST_DEBUG_OBJECT(self, "pausing the output task: EOS");
+            gst_pad_pause_task(self->srcpad);
+            return;
+        }
     }
 
     const bool eos_queued = s.output.finishPush(ret);

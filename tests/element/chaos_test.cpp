@@ -572,6 +572,43 @@ ELEMENT_TEST(a_short_buffer_with_a_video_meta_is_dropped)
     fail_unless(problems.empty(), "%s", problems.c_str());
 }
 
+// Found by the chaos test: a new stream (STREAM_START, SEGMENT) that arrives after EOS but
+// before the task has pushed that EOS was queued behind it; pushing the EOS then stopped
+// the task with the new stream still queued, and every frame of the new stream was
+// refused with EOS (until a flush). The new stream must go on.
+ELEMENT_TEST(a_new_stream_queued_behind_eos_goes_on)
+{
+    RigOptions options;
+    options.properties = {{"threads", "1"}, {"delay", "2"}};
+    Rig rig(options);
+    const Shape shape{"GRAY8", 32, 24, 30, 1};
+    std::lock_guard<std::mutex> stream(rig.streamLock());
+    fail_unless(rig.startStream(&shape));
+    const std::size_t from = rig.logSize();
+    auto frame = [](int i) {
+        FrameSpec f;
+        f.pts = GstClockTime(i) * GST_SECOND / 30;
+        f.shift_x = i;
+        return f;
+    };
+    for (int i = 0; i < 3; ++i)
+        fail_unless_equals_int(rig.pushFrame(frame(i)), GST_FLOW_OK);
+    rig.setDownstream(Downstream::Block);  // the task cannot reach the EOS yet
+    fail_unless(rig.pushEos());
+    fail_unless(rig.continueAfterEos());  // queued behind the EOS
+    rig.setDownstream(Downstream::Ok);
+    fail_unless(rig.waitForEosAfter(from, 20000));
+    const std::size_t second = rig.logSize();
+    for (int i = 3; i < 8; ++i)
+        fail_unless_equals_int(rig.pushFrame(frame(i)), GST_FLOW_OK);
+    fail_unless(rig.pushEos());
+    fail_unless(rig.waitForEosAfter(second, 20000), "the new stream never reached EOS");
+    fail_unless_equals_int(int(rig.framesOutSince(from).size()), 8);
+    rig.stop();
+    const std::string problems = rig.check();
+    fail_unless(problems.empty(), "%s", problems.c_str());
+}
+
 GST_START_TEST(chaos_sequences)
 {
     const long single = envLong("UAVSTABILIZE_CHAOS_SEED", -1);
@@ -644,6 +681,7 @@ Suite *chaosSuite()
     suite_add_tcase(s, tc);
     tcase_add_test(tc, warm_up);
     tcase_add_test(tc, a_short_buffer_with_a_video_meta_is_dropped);
+    tcase_add_test(tc, a_new_stream_queued_behind_eos_goes_on);
     tcase_add_test(tc, chaos_sequences);
     return s;
 }
