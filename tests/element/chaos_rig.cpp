@@ -763,7 +763,7 @@ bool Rig::flushStart()
     return started;
 }
 
-bool Rig::flushStop(GstClockTime segment_start)
+bool Rig::flushStop(GstClockTime segment_start, bool segment)
 {
     GstEvent *stop_event = gst_event_new_flush_stop(TRUE);
     const std::uint64_t stop_id = newEventId(stop_event);
@@ -777,8 +777,9 @@ bool Rig::flushStop(GstClockTime segment_start)
         bad_run_known_ = false;
     }
     // FLUSH_STOP took the segment off our pad: a new one, even if the element is down
-    // (our pad keeps it and sends it on later).
-    pushSegment(segment_start);
+    // (our pad keeps it and sends it on later). Without one, pushFrame() sends one.
+    if (segment)
+        pushSegment(segment_start);
     return stopped;
 }
 

@@ -119,7 +119,7 @@ public:
     // The two halves of flush(): FLUSH_START (no lock), FLUSH_STOP and SEGMENT (the caller
     // holds the stream lock).
     bool flushStart();
-    bool flushStop(GstClockTime segment_start = 0);
+    bool flushStop(GstClockTime segment_start = 0, bool segment = true);
     // The next FLUSH_START to reach our sink pad waits there until releaseFlushStart().
     void holdNextFlushStart();
     bool waitForHeldFlushStart(int timeout_ms);
