@@ -155,17 +155,20 @@ bool OutputChannel::takeNext(const std::function<std::optional<uavstab::Stabiliz
     return true;
 }
 
-bool OutputChannel::finishPush(GstFlowReturn ret)
+bool OutputChannel::finishPush(GstFlowReturn ret, const std::function<void()> &pause_task)
 {
     std::lock_guard<std::mutex> lock(mutex_);
     pushing_ = false;
-    if (ret != GST_FLOW_OK && !flushing_)
-        last_flow_ = ret;
+    if (ret != GST_FLOW_OK) {
+        if (!flushing_)
+            last_flow_ = ret;
+        pause_task();
+    }
     changed_.notify_all();
     return eos_queued_;
 }
 
-bool OutputChannel::finishEos()
+bool OutputChannel::finishEos(const std::function<void()> &pause_task)
 {
     std::lock_guard<std::mutex> lock(mutex_);
     pushing_ = false;
@@ -178,6 +181,7 @@ bool OutputChannel::finishEos()
     }
     if (!flushing_)
         last_flow_ = GST_FLOW_EOS;
+    pause_task();
     return false;
 }
 

@@ -78,14 +78,17 @@ public:
     // finishPush() or abortPush().
     bool takeNext(const std::function<std::optional<uavstab::StabilizedFrame>()> &try_pop,
                   std::optional<uavstab::StabilizedFrame> &frame, EventPtr &event);
-    // The push returned `ret` (remembered unless OK or flushing). True when upstream
-    // had already sent EOS, so that no chain call will see a flow error.
-    bool finishPush(GstFlowReturn ret);
-    // The task pushed EOS: data stops (flow EOS) until FLUSH_STOP or a new stream, whose
-    // STREAM_START restarts the task (queueEvent). True when a new stream is queued
-    // behind the EOS already (its STREAM_START came before the EOS went out): the task
-    // goes on with it.
-    bool finishEos();
+    // The push returned `ret` (remembered unless OK or flushing); when not OK, the task
+    // stops: `pause_task` is run under the mutex, so that a restart for a new stream
+    // (queueEvent decides it under the mutex too) cannot fall between the flow being
+    // set and the pause, and be undone by it. True when upstream had already sent EOS,
+    // so that no chain call will see a flow error.
+    bool finishPush(GstFlowReturn ret, const std::function<void()> &pause_task);
+    // The task pushed EOS: data stops (flow EOS, `pause_task` run as above) until
+    // FLUSH_STOP or a new stream, whose STREAM_START restarts the task (queueEvent).
+    // True when a new stream is queued behind the EOS already (its STREAM_START came
+    // before the EOS went out): the task goes on with it.
+    bool finishEos(const std::function<void()> &pause_task);
     // The push failed with an exception: data stops with GST_FLOW_ERROR.
     void abortPush();
 

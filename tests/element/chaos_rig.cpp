@@ -43,6 +43,7 @@ struct Rig::Entry {
         NewStream,      // STREAM_START + SEGMENT after EOS were taken: a new stream (no flush)
         Error,          // the element posted an error (text), allowed or not
         Warning,
+        Note,           // text from outside (a GLib warning, say), for the report
     } kind = In;
     std::uint64_t id = 0;  // item id, 0 = not ours
     bool is_buffer = false;
@@ -726,6 +727,14 @@ void Rig::checkBadBufferAccounting(std::uint64_t id, GstFlowReturn ret, int warn
     ++bad_run_;
 }
 
+void Rig::note(const std::string &text)
+{
+    Entry entry;
+    entry.kind = Entry::Note;
+    entry.text = text;
+    append(entry);
+}
+
 void Rig::setMaxErrors(int value)
 {
     ++max_errors_version_;  // odd while changing
@@ -1024,6 +1033,8 @@ gboolean Rig::sinkEvent(GstPad *pad, GstObject *, GstEvent *event)
         self->log_changed_.notify_all();
     }
     gst_event_unref(event);
+    if (type == GST_EVENT_EOS)
+        ++self->eos_seen_;
     return TRUE;
 }
 
@@ -1124,10 +1135,15 @@ GstBusSyncReply Rig::onMessage(GstBus *, GstMessage *message, gpointer user_data
 
 bool Rig::waitForEosAfter(std::size_t from, int timeout_ms)
 {
+    return waitForEventAfter(GST_EVENT_EOS, from, timeout_ms);
+}
+
+bool Rig::waitForEventAfter(GstEventType type, std::size_t from, int timeout_ms)
+{
     std::unique_lock<std::mutex> lock(mutex_);
     return log_changed_.wait_for(lock, std::chrono::milliseconds(timeout_ms), [&] {
         for (std::size_t i = from; i < log_.size(); ++i)
-            if (log_[i].kind == Entry::Out && log_[i].type == GST_EVENT_EOS)
+            if (log_[i].kind == Entry::Out && !log_[i].is_buffer && log_[i].type == type)
                 return true;
         return false;
     });
@@ -1149,8 +1165,8 @@ std::vector<std::uint64_t> Rig::framesOutSince(std::size_t from) const
 std::string Rig::describe(const Entry &e) const
 {
     std::ostringstream out;
-    static const char *kinds[] = {"in",     "out",      "returned", "stopping", "stopped", "drain?",
-                                  "drain!", "new-stream", "ERROR",  "warning"};
+    static const char *kinds[] = {"in",     "out",        "returned", "stopping", "stopped", "drain?",
+                                  "drain!", "new-stream", "ERROR",    "warning",  "note"};
     out << kinds[e.kind] << " ";
     if (e.kind == Entry::In || e.kind == Entry::Out || e.kind == Entry::Returned) {
         if (e.is_buffer)
@@ -1304,6 +1320,8 @@ std::string Rig::check() const
             else if (e.kind == Entry::Error && e.text.find("streaming stopped") != std::string::npos &&
                      !anyDownstreamFailure())
                 fail("a flow error was posted although downstream never refused data: " + e.text, at);
+            break;
+        case Entry::Note:
             break;
         case Entry::DrainAsked:
             drain_key[e.id] = at;

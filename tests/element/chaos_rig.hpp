@@ -137,8 +137,12 @@ public:
     void queryFromDownstream();
 
     // --- Waiting and checking.
+    // EOS events that reached our sink pad so far (any thread; for tests that race it).
+    int eosSeen() const { return eos_seen_.load(); }
     // Waits until an EOS arrives downstream after log position `from`; false on timeout.
     bool waitForEosAfter(std::size_t from, int timeout_ms);
+    // The same for any event type.
+    bool waitForEventAfter(GstEventType type, std::size_t from, int timeout_ms);
     std::size_t logSize() const;
     // Item ids of the frames that came out since log position `from`.
     std::vector<std::uint64_t> framesOutSince(std::size_t from) const;
@@ -155,6 +159,8 @@ public:
     };
     Stats stats() const;
 
+    // Adds a line of text to the log (any thread).
+    void note(const std::string &text);
     // The bad-buffer accounting must know when max-errors changes (any thread).
     void setMaxErrors(int value);
 
@@ -227,6 +233,7 @@ private:
     Stats stats_;
     // Message counters (bus sync handler; read by the streaming thread around a push).
     std::atomic<int> bad_warnings_{0}, bad_errors_{0}, negotiation_errors_{0};
+    std::atomic<int> eos_seen_{0};
 };
 
 } // namespace chaos

@@ -24,6 +24,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <mutex>
 #include <random>
 #include <string>
@@ -439,6 +440,8 @@ std::string log_problems;
 
 void recordLog(const gchar *domain, GLogLevelFlags level, const gchar *message, gpointer)
 {
+    if (Rig *rig = current_rig.load())
+        rig->note(std::string("GLib: ") + message);
     std::lock_guard<std::mutex> lock(log_mutex);
     if (log_problems.size() < 4000)
         log_problems += std::string("  - ") + (level & G_LOG_LEVEL_CRITICAL ? "CRITICAL " : "WARNING ") +
@@ -679,6 +682,89 @@ ELEMENT_TEST(overlapping_flushes_neither_hang_nor_stall)
     fail_unless(failure.empty(), "%s", failure.c_str());
 }
 
+// Found by the element fuzzer (a hang): after pushing EOS the task set the flow to EOS and
+// then paused itself; a new stream arriving in between (its STREAM_START restarts the
+// task) was undone by that pause, and the new stream stayed queued for good. The window
+// is held open here: a debug-log hook stops the task at its "... the output task: EOS"
+// line (logged right after the flow is set) until the new stream is in.
+namespace {
+
+struct EosHook {
+    std::atomic<bool> armed{false}, released{false};
+};
+EosHook eos_hook;
+
+void holdTaskAtEos(GstDebugCategory *category, GstDebugLevel, const gchar *, const gchar *, gint, GObject *,
+                   GstDebugMessage *message, gpointer)
+{
+    if (!eos_hook.armed || g_strcmp0(gst_debug_category_get_name(category), "uavstabilize") != 0)
+        return;
+    const gchar *text = gst_debug_message_get(message);
+    if (!text || !std::strstr(text, "the output task: EOS"))
+        return;
+    for (int i = 0; i < 2000 && !eos_hook.released; ++i)
+        g_usleep(1000);
+}
+
+} // namespace
+
+ELEMENT_TEST(a_new_stream_right_after_eos_goes_on)
+{
+    RigOptions options;
+    options.properties = {{"threads", "1"}, {"delay", "0"}, {"bypass", "true"}};
+    Rig rig(options);
+    const Shape shape{"GRAY8", 16, 16, 30, 1};
+    gst_debug_remove_log_function(gst_debug_log_default);
+    gst_debug_add_log_function(holdTaskAtEos, nullptr, nullptr);
+    gst_debug_set_threshold_for_name("uavstabilize", GST_LEVEL_DEBUG);
+    std::string failure;
+    {
+        std::lock_guard<std::mutex> stream(rig.streamLock());
+        fail_unless(rig.startStream(&shape));
+        FrameSpec f;
+        for (int round = 0; round < 5 && failure.empty(); ++round) {
+            f.pts = GstClockTime(round) * GST_SECOND / 30;
+            const GstFlowReturn ret = rig.pushFrame(f);
+            if (ret != GST_FLOW_OK) {
+                failure = "round " + std::to_string(round) + ": a frame of the new stream was refused with " +
+                          gst_flow_get_name(ret);
+                break;
+            }
+            eos_hook.released = false;
+            eos_hook.armed = true;
+            const int seen = rig.eosSeen();
+            if (!rig.pushEos()) {
+                failure = "round " + std::to_string(round) + ": EOS refused";
+                break;
+            }
+            // EOS is downstream: the task has set the flow to EOS and is held at its log line.
+            for (int i = 0; i < 10000 && rig.eosSeen() == seen; ++i)
+                g_usleep(100);
+            const std::size_t from = rig.logSize();
+            if (!rig.continueAfterEos())
+                failure = "round " + std::to_string(round) + ": the new stream was refused";
+            eos_hook.released = true;
+            eos_hook.armed = false;
+            if (failure.empty() && !rig.waitForEventAfter(GST_EVENT_STREAM_START, from, 5000))
+                failure = "round " + std::to_string(round) + ": the new stream never went out (the task stopped)";
+        }
+        if (failure.empty()) {
+            const std::size_t from = rig.logSize();
+            if (!rig.pushEos() || !rig.waitForEosAfter(from, 10000))
+                failure = "the last stream never reached EOS";
+        }
+    }
+    eos_hook.released = true;
+    eos_hook.armed = false;
+    gst_debug_set_threshold_for_name("uavstabilize", GST_LEVEL_NONE);
+    gst_debug_remove_log_function(holdTaskAtEos);
+    gst_debug_add_log_function(gst_debug_log_default, nullptr, nullptr);
+    rig.stop();
+    if (failure.empty())
+        failure = rig.check();
+    fail_unless(failure.empty(), "%s", failure.c_str());
+}
+
 GST_START_TEST(chaos_sequences)
 {
     const long single = envLong("UAVSTABILIZE_CHAOS_SEED", -1);
@@ -753,6 +839,7 @@ Suite *chaosSuite()
     tcase_add_test(tc, a_short_buffer_with_a_video_meta_is_dropped);
     tcase_add_test(tc, a_new_stream_queued_behind_eos_goes_on);
     tcase_add_test(tc, overlapping_flushes_neither_hang_nor_stall);
+    tcase_add_test(tc, a_new_stream_right_after_eos_goes_on);
     tcase_add_test(tc, chaos_sequences);
     return s;
 }
