@@ -33,13 +33,14 @@ void OutputChannel::letDataFlowLocked()
     last_flow_ = GST_FLOW_OK;
 }
 
-void OutputChannel::stopFlushing()
+std::vector<EventPtr> OutputChannel::stopFlushing()
 {
     std::lock_guard<std::mutex> lock(mutex_);
-    queue_.clear();
+    std::vector<EventPtr> sticky = queue_.flush();
     letDataFlowLocked();
     if (pool_ && gst_buffer_pool_is_active(pool_))
         gst_buffer_pool_set_flushing(pool_, FALSE);
+    return sticky;
 }
 
 void OutputChannel::activate()

@@ -20,6 +20,7 @@
 #include <functional>
 #include <mutex>
 #include <optional>
+#include <vector>
 
 #include <gst/gst.h>
 
@@ -40,8 +41,10 @@ public:
     // Data stops: waiters wake up, a chain blocked on an output buffer returns.
     void startFlushing();
     // FLUSH_STOP: drops every queued item and lets data flow again (downstream's last
-    // flow return and a queued EOS are forgotten).
-    void stopFlushing();
+    // flow return and a queued EOS are forgotten). Hands back the queued sticky events
+    // but SEGMENT and EOS: upstream holds them as delivered and does not send them
+    // again, so the caller keeps them on the src pad (as queue does).
+    std::vector<EventPtr> stopFlushing();
     // The src pad goes active: data may flow (the queue is empty then).
     void activate();
     // The stream stopped (pads inactive): drops every queued item.

@@ -179,7 +179,10 @@ bool handleFlushStop(GstUavStabilize *self, UavStabilizeState &s, EventPtr event
     // resetting waits for warps whose ready callback takes it.
     if (s.stabilizer)
         s.stabilizer->reset();
-    s.output.stopFlushing();
+    // Sticky events still queued (STREAM_START, CAPS, TAG) will not come again from
+    // upstream: stored on the src pad, they go out before the next data.
+    for (const EventPtr &sticky : s.output.stopFlushing())
+        gst_pad_store_sticky_event(self->srcpad, sticky.get());
     gst_segment_init(&s.output_segment, GST_FORMAT_UNDEFINED);
     s.bad_buffers = 0;
     const bool pushed = gst_pad_push_event(self->srcpad, event.release());

@@ -765,6 +765,57 @@ ELEMENT_TEST(a_new_stream_right_after_eos_goes_on)
     fail_unless(failure.empty(), "%s", failure.c_str());
 }
 
+// Found by the chaos test (GStreamer's "Sticky event misordering, got 'caps' before
+// 'stream-start'" warning on the element's src pad). A flush dropped the queued items,
+// sticky events among them (STREAM_START, TAG, CAPS): upstream, whose pad holds them as
+// delivered, does not send them again, so downstream never saw them (or saw new CAPS
+// before the STREAM_START that came ahead of them). Like queue, the element keeps them
+// on its src pad, and they go out before the next data.
+ELEMENT_TEST(sticky_events_queued_at_a_flush_still_go_downstream)
+{
+    RigOptions options;
+    options.properties = {{"threads", "1"}, {"delay", "0"}};
+    Rig rig(options);
+    const Shape shape{"GRAY8", 32, 24, 30, 1};
+    {
+        std::lock_guard<std::mutex> stream(rig.streamLock());
+        fail_unless(rig.startStream(&shape));
+        FrameSpec f;
+        fail_unless_equals_int(rig.pushFrame(f), GST_FLOW_OK);
+    }
+    fail_unless(rig.waitForEventAfter(GST_EVENT_SEGMENT, 0, 10000));
+    // The task is busy (downstream blocks) while a new STREAM_START and a TAG are queued.
+    rig.setDownstream(Downstream::Block);
+    std::size_t queued;
+    {
+        std::lock_guard<std::mutex> stream(rig.streamLock());
+        FrameSpec f;
+        f.pts = GST_SECOND / 30;
+        fail_unless_equals_int(rig.pushFrame(f), GST_FLOW_OK);
+        queued = rig.logSize();
+        fail_unless(rig.pushEvent(gst_event_new_stream_start("after-the-flush")));
+        fail_unless(rig.pushEvent(gst_event_new_tag(gst_tag_list_new(GST_TAG_TITLE, "kept", nullptr))));
+    }
+    rig.flush(0);
+    rig.setDownstream(Downstream::Ok);
+    std::string failure;
+    {
+        std::lock_guard<std::mutex> stream(rig.streamLock());
+        const std::size_t from = rig.logSize();
+        FrameSpec f;
+        fail_unless_equals_int(rig.pushFrame(f), GST_FLOW_OK);
+        if (!rig.pushEos() || !rig.waitForEosAfter(from, 10000))
+            failure = "no EOS after the flush; ";
+        if (!rig.waitForEventAfter(GST_EVENT_STREAM_START, queued, 100))
+            failure += "the STREAM_START queued at the flush never went downstream; ";
+        if (!rig.waitForEventAfter(GST_EVENT_TAG, queued, 100))
+            failure += "the TAG queued at the flush never went downstream; ";
+    }
+    rig.stop();
+    failure += rig.check();
+    fail_unless(failure.empty(), "%s", failure.c_str());
+}
+
 GST_START_TEST(chaos_sequences)
 {
     const long single = envLong("UAVSTABILIZE_CHAOS_SEED", -1);
@@ -840,6 +891,7 @@ Suite *chaosSuite()
     tcase_add_test(tc, a_new_stream_queued_behind_eos_goes_on);
     tcase_add_test(tc, overlapping_flushes_neither_hang_nor_stall);
     tcase_add_test(tc, a_new_stream_right_after_eos_goes_on);
+    tcase_add_test(tc, sticky_events_queued_at_a_flush_still_go_downstream);
     tcase_add_test(tc, chaos_sequences);
     return s;
 }
