@@ -1254,7 +1254,6 @@ std::string Rig::check() const
     std::size_t last_key = 0;          // place of the last frame or event out (0: none)
     std::size_t last_frame_key = 0;
     int floor = 0;
-    int down_caps = -1;
 
     // Frames of epoch e taken before place `key` that have not come out.
     auto missingBefore = [&](int e, std::size_t key) {
@@ -1453,9 +1452,6 @@ std::string Rig::check() const
                     floor = std::max(floor, it->second);
                 break;
             }
-            if (e.type == GST_EVENT_CAPS)
-                down_caps = e.caps;
-            (void)down_caps;
             const bool sticky = (e.type & GST_EVENT_TYPE_STICKY) != 0;
             const std::string name = std::string(gst_event_type_get_name(e.type)) + " " + std::to_string(e.id);
             if (!e.id) {

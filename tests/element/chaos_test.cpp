@@ -17,8 +17,14 @@
 //   UAVSTABILIZE_CHAOS_SEED=N        replay that one sequence (its operations are the same
 //                                    each time; thread timing is not, so a race may need
 //                                    UAVSTABILIZE_CHAOS_REPEAT=R replays)
-//   UAVSTABILIZE_CHAOS_WATCHDOG=S    seconds before a sequence counts as hung (default 60)
+//   UAVSTABILIZE_CHAOS_WATCHDOG=S    seconds before a sequence counts as hung (default 60); the
+//                                    report has the sequence's log and, through gdb if it is
+//                                    installed, every thread's stack (UAVSTABILIZE_CHAOS_GDB=0: not)
 //   UAVSTABILIZE_CHAOS_VERBOSE=1     one line per sequence
+//   UAVSTABILIZE_CHAOS_LOG=N         log entries shown for a failing sequence (default 60)
+//
+// Before the sequences, one test per bug the chaos test and the element fuzzer found, each
+// made deterministic.
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
