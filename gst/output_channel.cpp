@@ -20,9 +20,22 @@ void OutputChannel::startFlushing()
     std::lock_guard<std::mutex> lock(mutex_);
     flushing_ = true;
     // Wakes a chain blocked in acquireBuffer().
-    if (pool_ && gst_buffer_pool_is_active(pool_))
-        gst_buffer_pool_set_flushing(pool_, TRUE);
+    setPoolFlushingLocked(true);
     changed_.notify_all();
+}
+
+void OutputChannel::setPoolFlushingLocked(bool flushing)
+{
+    if (pool_ && gst_buffer_pool_is_active(pool_))
+        gst_buffer_pool_set_flushing(pool_, flushing);
+}
+
+void OutputChannel::stopDataLocked(GstFlowReturn ret)
+{
+    last_flow_ = ret;
+    // A chain waiting for an output buffer returns (the frames holding the buffers wait
+    // for the task, which has stopped).
+    setPoolFlushingLocked(true);
 }
 
 void OutputChannel::letDataFlowLocked()
@@ -31,6 +44,7 @@ void OutputChannel::letDataFlowLocked()
     pushing_ = false;
     eos_queued_ = false;
     last_flow_ = GST_FLOW_OK;
+    setPoolFlushingLocked(false);
 }
 
 std::vector<EventPtr> OutputChannel::stopFlushing()
@@ -38,8 +52,6 @@ std::vector<EventPtr> OutputChannel::stopFlushing()
     std::lock_guard<std::mutex> lock(mutex_);
     std::vector<EventPtr> sticky = queue_.flush();
     letDataFlowLocked();
-    if (pool_ && gst_buffer_pool_is_active(pool_))
-        gst_buffer_pool_set_flushing(pool_, FALSE);
     return sticky;
 }
 
@@ -104,6 +116,7 @@ OutputChannel::EventQueued OutputChannel::queueEvent(EventPtr event)
         // A new stream after EOS: data may flow again.
         last_flow_ = GST_FLOW_OK;
         eos_queued_ = false;
+        setPoolFlushingLocked(false);
         result = EventQueued::QueuedAfterEos;
     } else if (last_flow_ != GST_FLOW_OK) {
         GST_DEBUG_OBJECT(owner_, "refusing %" GST_PTR_FORMAT ": downstream returned %s", event.get(),
@@ -127,7 +140,7 @@ bool OutputChannel::waitUntilDrained()
 void OutputChannel::recordError()
 {
     std::lock_guard<std::mutex> lock(mutex_);
-    last_flow_ = GST_FLOW_ERROR;
+    stopDataLocked(GST_FLOW_ERROR);
     changed_.notify_all();
 }
 
@@ -162,7 +175,7 @@ bool OutputChannel::finishPush(GstFlowReturn ret, const std::function<void()> &p
     pushing_ = false;
     if (ret != GST_FLOW_OK) {
         if (!flushing_)
-            last_flow_ = ret;
+            stopDataLocked(ret);
         pause_task();
     }
     changed_.notify_all();
@@ -181,7 +194,7 @@ bool OutputChannel::finishEos(const std::function<void()> &pause_task)
         return true;
     }
     if (!flushing_)
-        last_flow_ = GST_FLOW_EOS;
+        stopDataLocked(GST_FLOW_EOS);
     pause_task();
     return false;
 }
@@ -190,7 +203,7 @@ void OutputChannel::abortPush()
 {
     std::lock_guard<std::mutex> lock(mutex_);
     pushing_ = false;
-    last_flow_ = GST_FLOW_ERROR;
+    stopDataLocked(GST_FLOW_ERROR);
     changed_.notify_all();
 }
 

@@ -109,8 +109,13 @@ public:
 
 private:
     GstFlowReturn flowLocked() const;
-    // Not flushing, not pushing, no EOS queued, no flow error remembered.
+    // Not flushing, not pushing, no EOS queued, no flow error remembered; the output pool
+    // hands out buffers again.
     void letDataFlowLocked();
+    // Data stops with `ret` (downstream's, or an error): remembered, and the output pool
+    // set flushing so that a chain waiting for a buffer returns.
+    void stopDataLocked(GstFlowReturn ret);
+    void setPoolFlushingLocked(bool flushing);
 
     GstObject *owner_;
     mutable std::mutex mutex_;

@@ -326,6 +326,10 @@ void Rig::stop()
     }
     gst_element_set_state(element_, GST_STATE_NULL);
     state_ = GST_STATE_NULL;
+    {
+        std::lock_guard<std::mutex> lock(down_mutex_);
+        gst_buffer_replace(&last_buffer_, nullptr);
+    }
     gst_pad_remove_probe(element_sink_, probe_id_);
     gst_pad_set_active(src_, FALSE);
     gst_pad_set_active(sink_, FALSE);
@@ -955,12 +959,14 @@ GstFlowReturn Rig::sinkChain(GstPad *pad, GstObject *, GstBuffer *buffer)
     }
     if (current)
         gst_caps_unref(current);
-    gst_buffer_unref(buffer);
 
     GstFlowReturn ret = GST_FLOW_OK;
     int sleep_us = 0;
     {
         std::unique_lock<std::mutex> lock(self->down_mutex_);
+        // A sink holds the buffer while it blocks (and, keeping the last sample, after).
+        if (self->options_.hold_last)
+            gst_buffer_replace(&self->last_buffer_, buffer);
         for (;;) {
             if (self->down_stopped_ || self->down_flushing_) {
                 ret = GST_FLOW_FLUSHING;
@@ -993,6 +999,7 @@ GstFlowReturn Rig::sinkChain(GstPad *pad, GstObject *, GstBuffer *buffer)
     }
     if (sleep_us > 0)
         std::this_thread::sleep_for(std::chrono::microseconds(sleep_us));
+    gst_buffer_unref(buffer);
     std::lock_guard<std::mutex> lock(self->mutex_);
     self->log_[index].flow = ret;
     if (ret != GST_FLOW_OK)

@@ -81,6 +81,7 @@ struct RigOptions {
     // n > 0 a pool of at most n buffers.
     int pool_max = -1;
     bool video_meta = false;  // our sink pad says it takes video metas
+    bool hold_last = false;   // our sink keeps the last buffer it got (like a video sink's last sample)
 };
 
 class Rig {
@@ -219,6 +220,7 @@ private:
     bool down_flushing_ = false;  // a FLUSH_START reached our sink pad
     bool down_stopped_ = false;   // emulates the sink being stopped (state change, teardown)
     bool hold_flush_start_ = false, flush_start_held_ = false;
+    GstBuffer *last_buffer_ = nullptr;  // hold_last (down_mutex_)
 
     // The log (mutex_).
     mutable std::mutex mutex_;

@@ -822,6 +822,54 @@ ELEMENT_TEST(sticky_events_queued_at_a_flush_still_go_downstream)
     fail_unless(failure.empty(), "%s", failure.c_str());
 }
 
+// Found by the element fuzzer (a timeout): with a small downstream pool, a chain waiting
+// for an output buffer (every one held by frames queued for the task, or downstream) was
+// not woken when downstream refused data: the task stopped, nothing gave a buffer back,
+// and upstream's streaming thread waited for good instead of getting the flow back
+// (NOT_LINKED: nobody posts an error, so the pipeline just stalls).
+ELEMENT_TEST(a_chain_waiting_for_an_output_buffer_sees_a_downstream_refusal)
+{
+    RigOptions options;
+    options.properties = {{"threads", "1"}, {"delay", "0"}};
+    options.pool_max = 2;
+    options.hold_last = true;
+    Rig rig(options);
+    const Shape shape{"GRAY8", 32, 24, 30, 1};
+    auto frame = [](int i) {
+        FrameSpec f;
+        f.pts = GstClockTime(i) * GST_SECOND / 30;
+        f.shift_x = i;
+        return f;
+    };
+    {
+        std::lock_guard<std::mutex> stream(rig.streamLock());
+        fail_unless(rig.startStream(&shape));
+    }
+    rig.setDownstream(Downstream::Block);
+    std::atomic<int> returned{0};
+    std::atomic<GstFlowReturn> last{GST_FLOW_OK};
+    std::thread streaming([&] {
+        std::lock_guard<std::mutex> stream(rig.streamLock());
+        // 0: out, held downstream (blocked); 1: queued behind it; 2: waits for a buffer.
+        for (int i = 0; i < 3; ++i) {
+            last = rig.pushFrame(frame(i));
+            ++returned;
+        }
+    });
+    for (int i = 0; i < 500 && returned < 2; ++i)
+        g_usleep(10 * 1000);
+    g_usleep(200 * 1000);  // frame 2 is waiting for an output buffer now
+    rig.setDownstream(Downstream::NotLinked);
+    for (int i = 0; i < 500 && returned < 3; ++i)
+        g_usleep(10 * 1000);
+    const bool woke = returned == 3;
+    rig.stop();  // wakes it if it still waits (the element goes down)
+    streaming.join();
+    fail_unless(woke, "the chain still waits for an output buffer after downstream returned NOT_LINKED");
+    const std::string problems = rig.check();
+    fail_unless(problems.empty(), "%s", problems.c_str());
+}
+
 GST_START_TEST(chaos_sequences)
 {
     const long single = envLong("UAVSTABILIZE_CHAOS_SEED", -1);
@@ -898,6 +946,7 @@ Suite *chaosSuite()
     tcase_add_test(tc, overlapping_flushes_neither_hang_nor_stall);
     tcase_add_test(tc, a_new_stream_right_after_eos_goes_on);
     tcase_add_test(tc, sticky_events_queued_at_a_flush_still_go_downstream);
+    tcase_add_test(tc, a_chain_waiting_for_an_output_buffer_sees_a_downstream_refusal);
     tcase_add_test(tc, chaos_sequences);
     return s;
 }
