@@ -116,6 +116,7 @@ RigOptions randomOptions(Rng &rng)
     set("max-corners", std::to_string(rng.range(4, 60)));
     o.pool_max = rng.weighted({4, 3, 3}) == 0 ? -1 : (rng.chance(0.5) ? 0 : rng.range(2, 6));
     o.video_meta = rng.chance(0.5);
+    o.hold_last = rng.chance(0.3);
     return o;
 }
 

@@ -354,6 +354,7 @@ void runInput(const std::uint8_t *data, std::size_t size)
     const int pool = b.range(0, 3);
     options.pool_max = pool == 0 ? -1 : pool == 1 ? 0 : b.range(2, 5);
     options.video_meta = b.bit();
+    options.hold_last = b.next() % 4 == 0;
     const Shape first = shapeFrom(b);
     const int final_frames = b.range(1, 10);
 
