@@ -51,14 +51,28 @@ std::vector<EventPtr> OutputChannel::stopFlushing()
 {
     std::lock_guard<std::mutex> lock(mutex_);
     std::vector<EventPtr> sticky = queue_.flush();
-    letDataFlowLocked();
+    // A FLUSH_STOP that comes in while the element is stopping (src pad inactive, sink pad
+    // not yet) must not undo the deactivation: the task being stopped would go on
+    // waiting for data, and the state change for the task.
+    if (active_)
+        letDataFlowLocked();
     return sticky;
 }
 
 void OutputChannel::activate()
 {
     std::lock_guard<std::mutex> lock(mutex_);
+    active_ = true;
     letDataFlowLocked();
+}
+
+void OutputChannel::deactivate()
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    active_ = false;
+    flushing_ = true;
+    setPoolFlushingLocked(true);
+    changed_.notify_all();
 }
 
 void OutputChannel::clear()

@@ -9,7 +9,7 @@
 //   src pad task         takeNext, finishPush, finishEos, abortPush
 //   flushing threads     startFlushing (FLUSH_START, pad deactivation)
 //   worker threads       notify (a warp is done)
-//   state changes        activate (src pad going active), clear and replacePool
+//   state changes        activate / deactivate (src pad), clear and replacePool
 //                        (stream stopped)
 //
 // The stabilizer is not part of it; operations that wait on it take a callable that is
@@ -47,6 +47,9 @@ public:
     std::vector<EventPtr> stopFlushing();
     // The src pad goes active: data may flow (the queue is empty then).
     void activate();
+    // The src pad goes inactive: data stops (as startFlushing) until activate(); a
+    // FLUSH_STOP meanwhile does not let it flow again.
+    void deactivate();
     // The stream stopped (pads inactive): drops every queued item.
     void clear();
     bool flushing() const;
@@ -122,6 +125,7 @@ private:
     std::condition_variable changed_;  // signalled on every change
     OutputQueue queue_;
     bool flushing_ = true;
+    bool active_ = false;      // the src pad is active (between activate and deactivate)
     bool pushing_ = false;     // the task is pushing an item it took off the queue
     bool eos_queued_ = false;  // upstream sent EOS: no chain call will see a flow error
     GstFlowReturn last_flow_ = GST_FLOW_OK;  // what downstream last returned, if not OK
