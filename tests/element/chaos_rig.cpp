@@ -1196,10 +1196,15 @@ std::string Rig::describe(const Entry &e) const
 
 std::string Rig::describeLog(std::size_t count) const
 {
+    const std::size_t size = logSize();
+    return describeLogRange(size > count ? size - count : 0, size);
+}
+
+std::string Rig::describeLogRange(std::size_t first, std::size_t last) const
+{
     std::lock_guard<std::mutex> lock(mutex_);
     std::ostringstream out;
-    const std::size_t first = log_.size() > count ? log_.size() - count : 0;
-    for (std::size_t i = first; i < log_.size(); ++i)
+    for (std::size_t i = first; i < std::min(last, log_.size()); ++i)
         out << "  #" << i << " " << describe(log_[i]) << "\n";
     return out.str();
 }

@@ -153,6 +153,8 @@ public:
     std::vector<std::string> immediateProblems() const;
     // The last `count` log entries, one a line, for a failure report.
     std::string describeLog(std::size_t count) const;
+    // Entries [first, last) (clamped), one a line.
+    std::string describeLogRange(std::size_t first, std::size_t last) const;
     // Counters for the report.
     struct Stats {
         int frames_pushed = 0, frames_out = 0, bad_pushed = 0, events_pushed = 0, flushes = 0, state_downs = 0,

@@ -434,8 +434,15 @@ Outcome runSequence(std::uint64_t seed)
     outcome.problems += rig.check();
     outcome.problems += takeLogProblems();
     outcome.stats = rig.stats();
-    if (!outcome.problems.empty())
-        outcome.log_tail = rig.describeLog(std::size_t(envLong("UAVSTABILIZE_CHAOS_LOG", 60)));
+    if (!outcome.problems.empty()) {
+        // The entries around the first problem the check points at, then the last ones.
+        const std::size_t at = outcome.problems.find("(log #");
+        if (at != std::string::npos) {
+            const std::size_t entry = std::size_t(std::atol(outcome.problems.c_str() + at + 6));
+            outcome.log_tail = rig.describeLogRange(entry > 40 ? entry - 40 : 0, entry + 10) + "  ...\n";
+        }
+        outcome.log_tail += rig.describeLog(std::size_t(envLong("UAVSTABILIZE_CHAOS_LOG", 60)));
+    }
     return outcome;
 }
 
