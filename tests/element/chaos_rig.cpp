@@ -44,6 +44,7 @@ struct Rig::Entry {
         Error,          // the element posted an error (text), allowed or not
         Warning,
         Note,           // text from outside (a GLib warning, say), for the report
+        StateUp,        // the element is back to PAUSED or PLAYING after a stop
     } kind = In;
     std::uint64_t id = 0;  // item id, 0 = not ours
     bool is_buffer = false;
@@ -895,6 +896,9 @@ GstStateChangeReturn Rig::setState(GstState state)
         std::lock_guard<std::mutex> stream(stream_mutex_);
         ret = gst_element_set_state(element_, state);
         state_ = state;
+        Entry up;
+        up.kind = Entry::StateUp;
+        append(up);
         return ret;
     } else {
         ret = gst_element_set_state(element_, state);
@@ -1173,7 +1177,7 @@ std::string Rig::describe(const Entry &e) const
 {
     std::ostringstream out;
     static const char *kinds[] = {"in",     "out",        "returned", "stopping", "stopped", "drain?",
-                                  "drain!", "new-stream", "ERROR",    "warning",  "note"};
+                                  "drain!", "new-stream", "ERROR",    "warning",  "note",    "started"};
     out << kinds[e.kind] << " ";
     if (e.kind == Entry::In || e.kind == Entry::Out || e.kind == Entry::Returned) {
         if (e.is_buffer)
@@ -1266,6 +1270,7 @@ std::string Rig::check() const
     std::size_t last_key = 0;          // place of the last frame or event out (0: none)
     std::size_t last_frame_key = 0;
     int floor = 0;
+    bool down = false;  // between a stop's start and the element being up again (epochs may pass)
 
     // Frames of epoch e taken before place `key` that have not come out.
     auto missingBefore = [&](int e, std::size_t key) {
@@ -1312,6 +1317,10 @@ std::string Rig::check() const
         }
         case Entry::StateChanging:
             epochs.back().stopping = true;
+            down = true;
+            break;
+        case Entry::StateUp:
+            down = false;
             break;
         case Entry::StateDown:
             epochs.emplace_back();
@@ -1353,7 +1362,7 @@ std::string Rig::check() const
                 break;  // refused by the pads themselves (flushing, EOS): not the element's doing
             const Item &item = it->second;
             // The reason may have come in any epoch since the item was pushed.
-            bool flushing = false, stopping = false, element_error = false, eos_out = false;
+            bool flushing = false, stopping = down, element_error = false, eos_out = false;
             std::set<GstFlowReturn> refused;
             std::uint64_t new_stream_from = 0;
             for (int i = std::max(0, current - 2); i <= current; ++i) {
