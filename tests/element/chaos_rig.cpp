@@ -1270,6 +1270,7 @@ std::string Rig::check() const
     std::size_t last_key = 0;          // place of the last frame or event out (0: none)
     std::size_t last_frame_key = 0;
     int floor = 0;
+    std::set<std::uint64_t> arrived;  // items the element has seen so far
     bool down = false;  // between a stop's start and the element being up again (epochs may pass)
 
     // Frames of epoch e taken before place `key` that have not come out.
@@ -1293,6 +1294,7 @@ std::string Rig::check() const
         switch (e.kind) {
         case Entry::In: {
             in_epoch[at] = current;
+            arrived.insert(e.id);
             if (e.is_buffer) {
                 const auto it = items_.find(e.id);
                 if (it == items_.end())
@@ -1358,8 +1360,12 @@ std::string Rig::check() const
             if (e.flow == GST_FLOW_OK || e.type == GST_EVENT_FLUSH_START || e.type == GST_EVENT_FLUSH_STOP)
                 break;
             const auto it = items_.find(e.id);
-            if (it == items_.end() || !it->second.reached)
-                break;  // refused by the pads themselves (flushing, EOS): not the element's doing
+            // Not seen by the element before the push returned: refused by the pads
+            // themselves (flushing, EOS), not the element's doing. (A FLUSH_START sets the
+            // pad flushing a moment before the probe logs it; our pad may send a refused
+            // sticky event again later, which then arrives after this entry.)
+            if (it == items_.end() || !arrived.count(e.id))
+                break;
             const Item &item = it->second;
             // The reason may have come in any epoch since the item was pushed.
             bool flushing = false, stopping = down, element_error = false, eos_out = false;
