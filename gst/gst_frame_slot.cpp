@@ -35,18 +35,45 @@ std::optional<uavstab::FrameView> frameViewOf(const GstVideoFrame &frame)
     return view;
 }
 
+namespace {
+
+// gst_video_frame_map checks the buffer's size against the caps only for a buffer without
+// a video meta. With one, it maps the memory that holds each plane's first byte and takes
+// the meta's offsets and strides on trust: a short buffer with a meta would be read past
+// its end. Every row of every plane must lie inside what was mapped.
+bool planesInsideMappedMemory(const GstVideoFrame &frame, const uavstab::FrameView &view)
+{
+    if (!frame.meta)
+        return true;
+    for (int p = 0; p < view.planeCount(); ++p) {
+        const GstMapInfo &map = frame.map[p];
+        const std::uint8_t *data = view.planes[p].data;
+        if (data < map.data || view.planes[p].stride <= 0)
+            return false;
+        const std::size_t end = std::size_t(data - map.data) +
+                                std::size_t(view.planes[p].stride) * std::size_t(view.planeHeight(p) - 1) +
+                                std::size_t(view.planeRowBytes(p));
+        if (end > map.size)
+            return false;
+    }
+    return true;
+}
+
+} // namespace
+
 std::unique_ptr<GstFrameSlot> GstFrameSlot::map(GstBuffer *buffer, const GstVideoInfo &info,
                                                 OutputBufferSource &outputs)
 {
     std::unique_ptr<GstFrameSlot> slot(new GstFrameSlot(buffer, info, outputs));
-    // gst_video_frame_map checks the buffer (or its video meta) against the caps, so a
-    // short buffer is refused here instead of being read out of bounds later.
+    // gst_video_frame_map checks the buffer (or its video meta) against the caps, and
+    // planesInsideMappedMemory what it does not, so a short buffer is refused here
+    // instead of being read out of bounds later.
     GstVideoInfo caps_info = info;
     if (!gst_video_frame_map(&slot->input_frame_, &caps_info, buffer, GST_MAP_READ))
         return nullptr;
     slot->input_mapped_ = true;
     const std::optional<uavstab::FrameView> view = frameViewOf(slot->input_frame_);
-    if (!view)
+    if (!view || !planesInsideMappedMemory(slot->input_frame_, *view))
         return nullptr;
     slot->input_view_ = *view;
     return slot;

@@ -106,7 +106,7 @@ gboolean srcActivateMode(GstPad *pad, GstObject *parent, GstPadMode mode, gboole
         return gst_pad_start_task(pad, gstuavstab::srcLoop, self, nullptr);
     }
     // Wakes the task and a blocked chain; the task then pauses itself and is joined.
-    s.output.startFlushing();
+    s.output.deactivate();
     return gst_pad_stop_task(pad);
 }
 

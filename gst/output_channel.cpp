@@ -20,9 +20,22 @@ void OutputChannel::startFlushing()
     std::lock_guard<std::mutex> lock(mutex_);
     flushing_ = true;
     // Wakes a chain blocked in acquireBuffer().
-    if (pool_ && gst_buffer_pool_is_active(pool_))
-        gst_buffer_pool_set_flushing(pool_, TRUE);
+    setPoolFlushingLocked(true);
     changed_.notify_all();
+}
+
+void OutputChannel::setPoolFlushingLocked(bool flushing)
+{
+    if (pool_ && gst_buffer_pool_is_active(pool_))
+        gst_buffer_pool_set_flushing(pool_, flushing);
+}
+
+void OutputChannel::stopDataLocked(GstFlowReturn ret)
+{
+    last_flow_ = ret;
+    // A chain waiting for an output buffer returns (the frames holding the buffers wait
+    // for the task, which has stopped).
+    setPoolFlushingLocked(true);
 }
 
 void OutputChannel::letDataFlowLocked()
@@ -31,21 +44,35 @@ void OutputChannel::letDataFlowLocked()
     pushing_ = false;
     eos_queued_ = false;
     last_flow_ = GST_FLOW_OK;
+    setPoolFlushingLocked(false);
 }
 
-void OutputChannel::stopFlushing()
+std::vector<EventPtr> OutputChannel::stopFlushing()
 {
     std::lock_guard<std::mutex> lock(mutex_);
-    queue_.clear();
-    letDataFlowLocked();
-    if (pool_ && gst_buffer_pool_is_active(pool_))
-        gst_buffer_pool_set_flushing(pool_, FALSE);
+    std::vector<EventPtr> sticky = queue_.flush();
+    // A FLUSH_STOP that comes in while the element is stopping (src pad inactive, sink pad
+    // not yet) must not undo the deactivation: the task being stopped would go on
+    // waiting for data, and the state change for the task.
+    if (active_)
+        letDataFlowLocked();
+    return sticky;
 }
 
 void OutputChannel::activate()
 {
     std::lock_guard<std::mutex> lock(mutex_);
+    active_ = true;
     letDataFlowLocked();
+}
+
+void OutputChannel::deactivate()
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    active_ = false;
+    flushing_ = true;
+    setPoolFlushingLocked(true);
+    changed_.notify_all();
 }
 
 void OutputChannel::clear()
@@ -103,6 +130,7 @@ OutputChannel::EventQueued OutputChannel::queueEvent(EventPtr event)
         // A new stream after EOS: data may flow again.
         last_flow_ = GST_FLOW_OK;
         eos_queued_ = false;
+        setPoolFlushingLocked(false);
         result = EventQueued::QueuedAfterEos;
     } else if (last_flow_ != GST_FLOW_OK) {
         GST_DEBUG_OBJECT(owner_, "refusing %" GST_PTR_FORMAT ": downstream returned %s", event.get(),
@@ -126,7 +154,7 @@ bool OutputChannel::waitUntilDrained()
 void OutputChannel::recordError()
 {
     std::lock_guard<std::mutex> lock(mutex_);
-    last_flow_ = GST_FLOW_ERROR;
+    stopDataLocked(GST_FLOW_ERROR);
     changed_.notify_all();
 }
 
@@ -155,21 +183,41 @@ bool OutputChannel::takeNext(const std::function<std::optional<uavstab::Stabiliz
     return true;
 }
 
-bool OutputChannel::finishPush(GstFlowReturn ret)
+bool OutputChannel::finishPush(GstFlowReturn ret, const std::function<void()> &pause_task)
 {
     std::lock_guard<std::mutex> lock(mutex_);
     pushing_ = false;
-    if (ret != GST_FLOW_OK && !flushing_)
-        last_flow_ = ret;
+    if (ret != GST_FLOW_OK) {
+        if (!flushing_)
+            stopDataLocked(ret);
+        pause_task();
+    }
     changed_.notify_all();
     return eos_queued_;
+}
+
+bool OutputChannel::finishEos(const std::function<void()> &pause_task)
+{
+    std::lock_guard<std::mutex> lock(mutex_);
+    pushing_ = false;
+    changed_.notify_all();
+    if (!queue_.empty()) {
+        // After EOS the sink pad takes nothing but STREAM_START (or a flush, which empties
+        // the queue), so what is queued is a new stream: go on with it.
+        eos_queued_ = queue_.holdsEvent(GST_EVENT_EOS);
+        return true;
+    }
+    if (!flushing_)
+        stopDataLocked(GST_FLOW_EOS);
+    pause_task();
+    return false;
 }
 
 void OutputChannel::abortPush()
 {
     std::lock_guard<std::mutex> lock(mutex_);
     pushing_ = false;
-    last_flow_ = GST_FLOW_ERROR;
+    stopDataLocked(GST_FLOW_ERROR);
     changed_.notify_all();
 }
 

@@ -6,10 +6,10 @@
 //   streaming thread     flow, queueFrameWhenRoom, waitForRoom, queueEvent,
 //                        waitUntilDrained, replacePool, stopFlushing (FLUSH_STOP),
 //                        recordError, acquireBuffer (through the frame slots)
-//   src pad task         takeNext, finishPush, abortPush
+//   src pad task         takeNext, finishPush, finishEos, abortPush
 //   flushing threads     startFlushing (FLUSH_START, pad deactivation)
 //   worker threads       notify (a warp is done)
-//   state changes        activate (src pad going active), clear and replacePool
+//   state changes        activate / deactivate (src pad), clear and replacePool
 //                        (stream stopped)
 //
 // The stabilizer is not part of it; operations that wait on it take a callable that is
@@ -20,6 +20,7 @@
 #include <functional>
 #include <mutex>
 #include <optional>
+#include <vector>
 
 #include <gst/gst.h>
 
@@ -40,10 +41,15 @@ public:
     // Data stops: waiters wake up, a chain blocked on an output buffer returns.
     void startFlushing();
     // FLUSH_STOP: drops every queued item and lets data flow again (downstream's last
-    // flow return and a queued EOS are forgotten).
-    void stopFlushing();
+    // flow return and a queued EOS are forgotten). Hands back the queued sticky events
+    // but SEGMENT and EOS: upstream holds them as delivered and does not send them
+    // again, so the caller keeps them on the src pad (as queue does).
+    std::vector<EventPtr> stopFlushing();
     // The src pad goes active: data may flow (the queue is empty then).
     void activate();
+    // The src pad goes inactive: data stops (as startFlushing) until activate(); a
+    // FLUSH_STOP meanwhile does not let it flow again.
+    void deactivate();
     // The stream stopped (pads inactive): drops every queued item.
     void clear();
     bool flushing() const;
@@ -78,9 +84,17 @@ public:
     // finishPush() or abortPush().
     bool takeNext(const std::function<std::optional<uavstab::StabilizedFrame>()> &try_pop,
                   std::optional<uavstab::StabilizedFrame> &frame, EventPtr &event);
-    // The push returned `ret` (remembered unless OK or flushing). True when upstream
-    // had already sent EOS, so that no chain call will see a flow error.
-    bool finishPush(GstFlowReturn ret);
+    // The push returned `ret` (remembered unless OK or flushing); when not OK, the task
+    // stops: `pause_task` is run under the mutex, so that a restart for a new stream
+    // (queueEvent decides it under the mutex too) cannot fall between the flow being
+    // set and the pause, and be undone by it. True when upstream had already sent EOS,
+    // so that no chain call will see a flow error.
+    bool finishPush(GstFlowReturn ret, const std::function<void()> &pause_task);
+    // The task pushed EOS: data stops (flow EOS, `pause_task` run as above) until
+    // FLUSH_STOP or a new stream, whose STREAM_START restarts the task (queueEvent).
+    // True when a new stream is queued behind the EOS already (its STREAM_START came
+    // before the EOS went out): the task goes on with it.
+    bool finishEos(const std::function<void()> &pause_task);
     // The push failed with an exception: data stops with GST_FLOW_ERROR.
     void abortPush();
 
@@ -98,14 +112,20 @@ public:
 
 private:
     GstFlowReturn flowLocked() const;
-    // Not flushing, not pushing, no EOS queued, no flow error remembered.
+    // Not flushing, not pushing, no EOS queued, no flow error remembered; the output pool
+    // hands out buffers again.
     void letDataFlowLocked();
+    // Data stops with `ret` (downstream's, or an error): remembered, and the output pool
+    // set flushing so that a chain waiting for a buffer returns.
+    void stopDataLocked(GstFlowReturn ret);
+    void setPoolFlushingLocked(bool flushing);
 
     GstObject *owner_;
     mutable std::mutex mutex_;
     std::condition_variable changed_;  // signalled on every change
     OutputQueue queue_;
     bool flushing_ = true;
+    bool active_ = false;      // the src pad is active (between activate and deactivate)
     bool pushing_ = false;     // the task is pushing an item it took off the queue
     bool eos_queued_ = false;  // upstream sent EOS: no chain call will see a flow error
     GstFlowReturn last_flow_ = GST_FLOW_OK;  // what downstream last returned, if not OK

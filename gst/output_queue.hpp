@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <deque>
 #include <memory>
+#include <vector>
 
 #include <gst/gst.h>
 
@@ -26,6 +27,13 @@ public:
     std::size_t size() const { return items_.size(); }
     bool frontIsFrame() const { return !items_.empty() && !items_.front(); }
     bool frontIsEvent() const { return !items_.empty() && items_.front(); }
+    bool holdsEvent(GstEventType type) const
+    {
+        for (const EventPtr &item : items_)
+            if (item && GST_EVENT_TYPE(item.get()) == type)
+                return true;
+        return false;
+    }
 
     void popFrame() { items_.pop_front(); }
     EventPtr popEvent()
@@ -36,6 +44,21 @@ public:
     }
     // Drops every item; queued events are released.
     void clear() { items_.clear(); }
+    // A flush: drops every item but hands back, in order, the queued sticky events that a
+    // flush leaves standing on a pad (all but SEGMENT and EOS).
+    std::vector<EventPtr> flush()
+    {
+        std::vector<EventPtr> kept;
+        for (EventPtr &item : items_) {
+            if (!item || !GST_EVENT_IS_STICKY(item.get()))
+                continue;
+            const GstEventType type = GST_EVENT_TYPE(item.get());
+            if (type != GST_EVENT_SEGMENT && type != GST_EVENT_EOS && type != GST_EVENT_STREAM_GROUP_DONE)
+                kept.push_back(std::move(item));
+        }
+        items_.clear();
+        return kept;
+    }
 
 private:
     std::deque<EventPtr> items_;  // null = a frame

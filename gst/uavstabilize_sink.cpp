@@ -168,16 +168,21 @@ bool handleCaps(GstUavStabilize *self, UavStabilizeState &s, EventPtr event)
 
 bool handleFlushStop(GstUavStabilize *self, UavStabilizeState &s, EventPtr event)
 {
-    if (!s.output.flushing()) {
-        // FLUSH_STOP without FLUSH_START: stop the task before throwing frames away.
-        s.output.startFlushing();
-        gst_pad_pause_task(self->srcpad);
-    }
+    // The task sees the flag (set by FLUSH_START, or here for a FLUSH_STOP without one)
+    // and pauses itself; wait for that before throwing frames away. It is done here and
+    // not at FLUSH_START: a FLUSH_STOP of another flush may come in while a FLUSH_START is
+    // still being handled, and a pause there would then stop the task this FLUSH_STOP
+    // restarts (or wait for it forever while no data comes).
+    s.output.startFlushing();
+    gst_pad_pause_task(self->srcpad);
     // Drops every held frame and restarts the path; not under the output's mutex, since
     // resetting waits for warps whose ready callback takes it.
     if (s.stabilizer)
         s.stabilizer->reset();
-    s.output.stopFlushing();
+    // Sticky events still queued (STREAM_START, CAPS, TAG) will not come again from
+    // upstream: stored on the src pad, they go out before the next data.
+    for (const EventPtr &sticky : s.output.stopFlushing())
+        gst_pad_store_sticky_event(self->srcpad, sticky.get());
     gst_segment_init(&s.output_segment, GST_FORMAT_UNDEFINED);
     s.bad_buffers = 0;
     const bool pushed = gst_pad_push_event(self->srcpad, event.release());
@@ -189,14 +194,11 @@ bool handleSinkEvent(GstUavStabilize *self, UavStabilizeState &s, EventPtr event
 {
     GST_LOG_OBJECT(self, "sink event %" GST_PTR_FORMAT, event.get());
     switch (GST_EVENT_TYPE(event.get())) {
-    case GST_EVENT_FLUSH_START: {
+    case GST_EVENT_FLUSH_START:
+        // Stops the chain and the task (a push in progress returns: downstream is
+        // flushing too); FLUSH_STOP waits for the task to have paused.
         s.output.startFlushing();
-        const bool pushed = gst_pad_push_event(self->srcpad, event.release());
-        // Waits for the task to leave its loop (downstream is flushing too, so a push
-        // in progress returns).
-        gst_pad_pause_task(self->srcpad);
-        return pushed;
-    }
+        return gst_pad_push_event(self->srcpad, event.release());
     case GST_EVENT_FLUSH_STOP:
         return handleFlushStop(self, s, std::move(event));
     case GST_EVENT_CAPS:

@@ -83,6 +83,9 @@ void runOutputStep(GstUavStabilize *self, UavStabilizeState &s)
         return;
     }
 
+    // The task stops itself (until FLUSH_STOP or a new stream restarts it) under the
+    // output's mutex: see OutputChannel::finishPush.
+    const auto pause_task = [self] { gst_pad_pause_task(self->srcpad); };
     GstFlowReturn ret = GST_FLOW_OK;
     if (frame) {
         ret = pushFrame(self, s, *frame);
@@ -92,22 +95,26 @@ void runOutputStep(GstUavStabilize *self, UavStabilizeState &s)
             gst_event_copy_segment(event.get(), &s.output_segment);
         GST_LOG_OBJECT(self, "pushing %" GST_PTR_FORMAT, event.get());
         gst_pad_push_event(self->srcpad, event.release());
-        if (type == GST_EVENT_EOS)
-            ret = GST_FLOW_EOS;  // nothing follows EOS until FLUSH_STOP or STREAM_START
+        if (type == GST_EVENT_EOS) {
+            // Nothing follows EOS until FLUSH_STOP or STREAM_START, unless a new stream
+            // was queued behind it before it went out.
+            if (!s.output.finishEos(pause_task))
+                GST_DEBUG_OBJECT(self, "paused the output task: EOS");
+            return;
+        }
     }
 
-    const bool eos_queued = s.output.finishPush(ret);
+    const bool eos_queued = s.output.finishPush(ret, pause_task);
     if (ret == GST_FLOW_OK)
         return;
 
-    GST_DEBUG_OBJECT(self, "pausing the output task: %s", gst_flow_get_name(ret));
+    GST_DEBUG_OBJECT(self, "paused the output task: %s", gst_flow_get_name(ret));
     // Like queue: once upstream has sent EOS no chain call can report the error, so
     // tell the application and end the stream here.
     if (eos_queued && ret != GST_FLOW_EOS && (ret == GST_FLOW_NOT_LINKED || ret < GST_FLOW_EOS)) {
         GST_ELEMENT_FLOW_ERROR(self, ret);
         gst_pad_push_event(self->srcpad, gst_event_new_eos());
     }
-    gst_pad_pause_task(self->srcpad);
 }
 
 } // namespace
