@@ -4,7 +4,9 @@
 # next to the stabilized H.264 video in a new TS.
 #   bash samples/ts_klv_stabilize.sh IN.ts OUT.ts [uavstabilize properties...]
 # e.g.  bash samples/ts_klv_stabilize.sh flight.ts steady.ts delay=30 crop=0.1
-# ENCODER overrides the video encoder (default "x264enc speed-preset=medium"), e.g.
+# ENCODER overrides the video encoder, what goes between videoconvert and h264parse
+# (default "video/x-raw,format=I420 ! x264enc speed-preset=medium": 4:2:0, which every
+# player decodes, even when the input was 4:4:4), e.g.
 #   ENCODER="x264enc bitrate=8000 key-int-max=30" bash samples/ts_klv_stabilize.sh ...
 #
 # Why the KLV packets stay with their frames: uavstabilize holds `delay` frames but gives
@@ -19,7 +21,7 @@
 # A TS without KLV is stabilized all the same (a KLV branch that never gets data would
 # keep the muxer waiting forever, so the streams are looked at first with
 # gst-discoverer-1.0). Any video codec decodebin knows is accepted; the output is H.264.
-# Only the first video and the first KLV stream are kept.
+# Only the first video and the first KLV stream are kept; audio and other streams are dropped.
 set -euo pipefail
 usage() {
   echo "usage: ts_klv_stabilize.sh IN.ts OUT.ts [uavstabilize properties, e.g. delay=30]" >&2
@@ -52,7 +54,7 @@ video_type=$(sed -n 's/^ *video #[0-9]*: \([^,]*\).*/\1/p' <<<"$streams" | head 
 [[ -n $video_type ]] || { echo "ts_klv_stabilize: no video stream in $in" >&2; exit 1; }
 klv_streams=$(grep -c '#[0-9]*: meta/x-klv' <<<"$streams" || true)
 
-encoder=${ENCODER:-x264enc speed-preset=medium}
+encoder=${ENCODER:-video/x-raw,format=I420 ! x264enc speed-preset=medium}
 unbounded="queue max-size-buffers=0 max-size-bytes=0 max-size-time=0"
 video=(d. ! "$video_type" ! queue ! decodebin ! videoconvert ! uavstabilize "$@"
        ! videoconvert ! $encoder ! h264parse ! $unbounded ! m.)
