@@ -133,12 +133,11 @@ struct Size {
 // every `klv_every`-th frame (0: no KLV stream), stamped like its frame.
 MadeTs makeInputTs(const std::string &path, int frames, int klv_every, Codec codec = Codec::H264, Size size = {})
 {
-    const int kWidth = size.width, kHeight = size.height;
     const std::string encoder = codec == Codec::H264
                                     ? "x264enc speed-preset=veryfast key-int-max=30 ! h264parse"
                                     : "mpeg2enc format=3 ! mpegvideoparse";
     std::string description = "appsrc name=video format=time caps=video/x-raw,format=I420,width=" +
-                              std::to_string(kWidth) + ",height=" + std::to_string(kHeight) + ",framerate=" +
+                              std::to_string(size.width) + ",height=" + std::to_string(size.height) + ",framerate=" +
                               std::to_string(kFps) + "/1 ! " + encoder + " ! mpegtsmux name=mux ! filesink location=" +
                               path;
     if (klv_every > 0)
@@ -149,12 +148,12 @@ MadeTs makeInputTs(const std::string &path, int frames, int klv_every, Codec cod
     fail_unless(gst_element_set_state(pipeline, GST_STATE_PLAYING) != GST_STATE_CHANGE_FAILURE);
 
     uavstab::synthetic::FlightOptions options;
-    options.width = kWidth;
-    options.height = kHeight;
+    options.width = size.width;
+    options.height = size.height;
     options.frames = frames;
     options.fps = kFps;
     const uavstab::synthetic::ShakyFlight flight(options);
-    GstCaps *caps = videoCaps("I420", kWidth, kHeight, kFps);
+    GstCaps *caps = videoCaps("I420", size.width, size.height, kFps);
     const GstVideoInfo info = videoInfo(caps);
     gst_caps_unref(caps);
 
