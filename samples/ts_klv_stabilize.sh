@@ -35,12 +35,17 @@ for prop in "$@"; do
   [[ $prop == *=* ]] || { echo "ts_klv_stabilize: '$prop' is not a property (name=value)" >&2; usage; }
 done
 [[ -f $in && -r $in ]] || { echo "ts_klv_stabilize: cannot read $in" >&2; exit 1; }
-for tool in gst-launch-1.0 gst-discoverer-1.0; do
+for tool in gst-launch-1.0 gst-inspect-1.0 gst-discoverer-1.0; do
   command -v "$tool" >/dev/null || {
     echo "ts_klv_stabilize: $tool is missing (Debian: gstreamer1.0-tools, gstreamer1.0-plugins-base-apps)" >&2
     exit 1
   }
 done
+
+gst-inspect-1.0 uavstabilize >/dev/null 2>&1 || {
+  echo "ts_klv_stabilize: GStreamer cannot find uavstabilize (a build tree: export GST_PLUGIN_PATH=\$PWD/build/gst)" >&2
+  exit 1
+}
 
 # The streams of the input, e.g. "    video #1: video/x-h264, stream-format=..." and
 # "    unknown #2: meta/x-klv, parsed=(boolean)true".
