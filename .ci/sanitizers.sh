@@ -22,7 +22,7 @@ ASAN_OPTIONS=detect_leaks=1 meson test -C build-asan --print-errorlogs --num-pro
 # Leaks in the element tests are the leaks tracer's job (GST_TRACERS=leaks in every
 # element test): LeakSanitizer would also report GLib's and OpenCV's one-time allocations.
 ASAN_OPTIONS=detect_leaks=0 meson test -C build-asan --print-errorlogs --num-processes "$(nproc)" --suite element
-echo "(the live RTSP test is not run under ASan: it drives the uninstrumented gst-launch-1.0)"
+echo "(the live RTSP test and the KLV sample test are not run under ASan: they drive the uninstrumented gst-launch-1.0)"
 
 [[ -f build-fuzz/build.ninja ]] ||
   CC=clang CXX=clang++ meson setup build-fuzz -Dfuzz=true -Db_sanitize=address,undefined -Db_lundef=false \
