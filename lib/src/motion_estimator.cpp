@@ -44,6 +44,9 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
     MotionEstimate result;
     const PointMatches matches = tracker_.track(frame);
     result.points = int(matches.current.size());
+    result.tracks.reserve(matches.current.size());
+    for (const Point2 &p : matches.current)
+        result.tracks.push_back({p, false});
     if (matches.first) {
         result.first = true;
         return result;
@@ -77,8 +80,12 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
     result.model = model;
     result.inliers = fit.inlier_count;
     result.rms = fit.rms;
+    for (std::size_t i = 0; i < result.tracks.size() && i < fit.inliers.size(); ++i)
+        result.tracks[i].inlier = fit.inliers[i] != 0;
     if (fit.inlier_count < config_.min_points || !plausible(fit.motion, frame.width, frame.height)) {
         result.skipped = true;
+        for (TrackedPoint &t : result.tracks)
+            t.inlier = false;
         result.lost = true;
         return result;
     }

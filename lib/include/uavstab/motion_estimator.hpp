@@ -6,6 +6,7 @@
 
 #include "uavstab/config.hpp"
 #include "uavstab/feature_tracker.hpp"
+#include "uavstab/frame_stats.hpp"
 #include "uavstab/hybrid_selector.hpp"
 #include "uavstab/motion_model.hpp"
 
@@ -26,6 +27,9 @@ struct MotionEstimate {
     // should start afresh here rather than smooth across the change.
     bool lost = false;
     bool first = false;    // first frame of a sequence: nothing to compare with
+    // The surviving tracks in this frame (full-resolution centred coordinates), each
+    // flagged when it is an inlier of the fit.
+    std::vector<TrackedPoint> tracks;
 };
 
 class MotionEstimator {
