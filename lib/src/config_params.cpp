@@ -86,6 +86,10 @@ std::vector<ConfigParam> makeTable()
                   "frame, separated by ';' (e.g. \"0,0,1,0.1;0.45,0.45,0.1,0.1\"); no corners are detected there "
                   "and tracks inside are not used for the motion fit. Empty: none",
                   &excludeText, &setExcludeText, &checkExclude),
+        flag<&C::exclude_static>("exclude_static", "Exclude static",
+                                 "Find screen-fixed overlays automatically: tracks that stay put while the rest of "
+                                 "the picture moves are not used, and no corners are detected where they keep "
+                                 "showing up (for a while)"),
         param<&C::analysis_width>("analysis_width", "Analysis width",
                                   "Motion is estimated on luma downscaled to this width (full size when smaller)", 16,
                                   16384),

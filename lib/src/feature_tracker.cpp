@@ -40,6 +40,7 @@ LkGeometry lkGeometry(cv::Size size, int max_window)
 
 struct FeatureTracker::Impl {
     StabilizerConfig config;
+    std::vector<RectF> auto_exclude;
     LumaExtractor luma;
     std::vector<cv::Mat> previous_pyramid, current_pyramid;
     std::vector<cv::Point2f> tracks;  // positions in the previous frame, analysis pixels
@@ -92,6 +93,23 @@ void FeatureTracker::setConfig(const StabilizerConfig &config)
     }
 }
 
+void FeatureTracker::setAutoExclude(std::vector<RectF> regions)
+{
+    impl_->auto_exclude = std::move(regions);
+}
+
+void FeatureTracker::dropTracks(const std::vector<std::uint8_t> &drop)
+{
+    std::vector<cv::Point2f> &tracks = impl_->tracks;
+    if (drop.size() != tracks.size())
+        return;  // not the last result's tracks (re-detected or reset since): nothing to do
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < tracks.size(); ++i)
+        if (!drop[i])
+            tracks[k++] = tracks[i];
+    tracks.resize(k);
+}
+
 void FeatureTracker::Impl::detect(const std::vector<cv::Mat> &pyramid)
 {
     // Corners are found on the half-size level when it is big enough: a quarter of the
@@ -111,7 +129,7 @@ void FeatureTracker::Impl::detect(const std::vector<cv::Mat> &pyramid)
     // Spread the corners: about one per (region area / max_corners), but not too sparse.
     const double spacing = std::sqrt(double(region.area()) / config.max_corners) * 0.5;
     cv::Mat mask;  // excluded regions: no corners there (nor in the quality level's maximum)
-    if (!config.exclude.empty()) {
+    if (!config.exclude.empty() || !auto_exclude.empty()) {
         mask = cv::Mat(region.size(), CV_8UC1, cv::Scalar(255));
         for (const cv::Rect &r : excluded(image.size(), (excludeMargin() + (1 << level) - 1) >> level)) {
             const cv::Rect inside = (r & region) - region.tl();
@@ -134,14 +152,16 @@ std::vector<cv::Rect> FeatureTracker::Impl::excluded(cv::Size size, int margin) 
 {
     std::vector<cv::Rect> rects;
     const cv::Rect image(0, 0, size.width, size.height);
-    for (const RectF &f : config.exclude) {
-        const int x0 = int(std::floor(f.x * size.width)) - margin, y0 = int(std::floor(f.y * size.height)) - margin;
-        const int x1 = int(std::ceil((f.x + f.w) * size.width)) + margin;
-        const int y1 = int(std::ceil((f.y + f.h) * size.height)) + margin;
-        const cv::Rect r = cv::Rect(x0, y0, x1 - x0, y1 - y0) & image;
-        if (!r.empty())
-            rects.push_back(r);
-    }
+    for (const std::vector<RectF> *list : {&config.exclude, &auto_exclude})
+        for (const RectF &f : *list) {
+            const int x0 = int(std::floor(f.x * size.width)) - margin;
+            const int y0 = int(std::floor(f.y * size.height)) - margin;
+            const int x1 = int(std::ceil((f.x + f.w) * size.width)) + margin;
+            const int y1 = int(std::ceil((f.y + f.h) * size.height)) + margin;
+            const cv::Rect r = cv::Rect(x0, y0, x1 - x0, y1 - y0) & image;
+            if (!r.empty())
+                rects.push_back(r);
+        }
     return rects;
 }
 

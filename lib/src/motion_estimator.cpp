@@ -1,7 +1,11 @@
+#include <cstdio>
+#include <cstdlib>
 #include "uavstab/motion_estimator.hpp"
 
 #include <algorithm>
 #include <cmath>
+
+#include "screen_fixed.hpp"
 
 namespace uavstab {
 
@@ -22,9 +26,12 @@ bool plausible(const Similarity &m, int width, int height)
 } // namespace
 
 MotionEstimator::MotionEstimator(const StabilizerConfig &config)
-    : config_(config), tracker_(config), selector_(config.model, config.dwell)
+    : config_(config), tracker_(config), selector_(config.model, config.dwell),
+      screen_fixed_(std::make_unique<ScreenFixedMap>())
 {
 }
+
+MotionEstimator::~MotionEstimator() = default;
 
 void MotionEstimator::reset()
 {
@@ -34,6 +41,10 @@ void MotionEstimator::reset()
 
 void MotionEstimator::setConfig(const StabilizerConfig &config)
 {
+    if (!config.exclude_static && config_.exclude_static) {
+        screen_fixed_->clear();
+        tracker_.setAutoExclude({});
+    }
     config_ = config;
     tracker_.setConfig(config);
     selector_.setChoice(config.model, config.dwell);
@@ -42,7 +53,17 @@ void MotionEstimator::setConfig(const StabilizerConfig &config)
 MotionEstimate MotionEstimator::estimate(const FrameView &frame)
 {
     MotionEstimate result;
-    const PointMatches matches = tracker_.track(frame);
+    PointMatches matches = tracker_.track(frame);
+    const double scale = std::max(1.0, double(frame.width) / std::min(frame.width, config_.analysis_width));
+    if (config_.exclude_static && !matches.first) {
+        std::vector<std::uint8_t> dropped;
+        result.screen_fixed =
+            screen_fixed_->filter(matches, frame.width, frame.height, scale, frame_count_ + 1, dropped);
+        if (result.screen_fixed)
+            tracker_.dropTracks(dropped);
+        tracker_.setAutoExclude(screen_fixed_->regions());  // evidence decays: every frame
+        if (getenv("SFDEBUG")) fprintf(stderr, "frame %u: points %zu dropped %d regions %zu\n", frame_count_, matches.current.size(), result.screen_fixed, screen_fixed_->regions().size());
+    }
     result.points = int(matches.current.size());
     result.tracks.reserve(matches.current.size());
     for (const Point2 &p : matches.current)
@@ -57,7 +78,6 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
         return result;
     }
 
-    const double scale = std::max(1.0, double(frame.width) / std::min(frame.width, config_.analysis_width));
     const double threshold = kInlierThresholdAnalysisPx * scale;
     const std::uint32_t seed = ++frame_count_;
     // The motion maps this frame's points onto the previous frame's.

@@ -95,6 +95,10 @@ struct StabilizerConfig {
     // detected inside these rectangles, and tracks that fall inside are not used for the
     // motion fit. Fractions of the frame; as text "x,y,w,h;x,y,w,h" (exclude_regions.hpp).
     std::vector<RectF> exclude;
+    // Find such overlays by themselves: tracks that stay put while the others agree the
+    // camera moved are dropped from the fit, and where they keep showing up no corners
+    // are detected for a while (lib/src/screen_fixed.hpp).
+    bool exclude_static = false;
 
     // Motion is estimated on luma downscaled to this width (full size when smaller);
     // the motion is scaled back to full resolution.

@@ -1,0 +1,110 @@
+#include "screen_fixed.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "uavstab/motion_model.hpp"
+
+namespace uavstab {
+
+namespace {
+
+constexpr double kMovingPx = 1.5;       // analysis px: "moved clearly"
+constexpr double kStillShare = 0.2;     // moved less than this share of what the scene did: stayed put
+constexpr double kInlierPx = 1.5;       // the fit of the moving tracks, as the estimator's
+constexpr int kMinMoving = 3;           // moving inliers needed to trust their motion
+constexpr float kEvidenceCap = 10.f;
+constexpr float kMaskedAt = 2.f;        // evidence that makes a cell excluded
+constexpr float kDecayPerFrame = 0.02f; // a cell is freed 400 frames after the last sighting
+
+double distance(const Point2 &a, const Point2 &b)
+{
+    return std::hypot(a.x - b.x, a.y - b.y);
+}
+
+} // namespace
+
+void ScreenFixedMap::clear()
+{
+    score_.fill(0.f);
+}
+
+int ScreenFixedMap::filter(PointMatches &m, int width, int height, double scale, std::uint32_t seed,
+                           std::vector<std::uint8_t> &drop)
+{
+    drop.assign(m.current.size(), 0);
+    if (width != width_ || height != height_) {
+        clear();
+        width_ = width;
+        height_ = height;
+    }
+    for (float &s : score_)
+        s = std::max(0.f, s - kDecayPerFrame);
+
+    // The motion the clearly moving tracks agree on...
+    const std::size_t n = m.current.size();
+    std::vector<Point2> moving_from, moving_to;
+    std::vector<double> moved(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        moved[i] = distance(m.current[i], m.previous[i]);
+        if (moved[i] > kMovingPx * scale) {
+            moving_from.push_back(m.current[i]);
+            moving_to.push_back(m.previous[i]);
+        }
+    }
+    if (int(moving_from.size()) < kMinMoving || moving_from.size() == n)
+        return 0;
+    const RobustFit fit = fitRobust(MotionModel::Similarity, moving_from, moving_to, kInlierPx * scale, seed);
+    if (fit.inlier_count < kMinMoving)
+        return 0;
+
+    // ... would have moved these clearly, but they (nearly) stayed put.
+    int dropped = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const Point2 &p = m.current[i];
+        const double expected = distance(fit.motion.apply(p), p);
+        if (expected <= kMovingPx * scale || moved[i] > kStillShare * expected)
+            continue;
+        drop[i] = 1;
+        ++dropped;
+        // Centred full-resolution coordinates -> cell.
+        const int cx = std::clamp(int((p.x / width + 0.5) * kCols), 0, kCols - 1);
+        const int cy = std::clamp(int((p.y / height + 0.5) * kRows), 0, kRows - 1);
+        float &s = score_[std::size_t(cy * kCols + cx)];
+        // A cell taken for an overlay is kept for a while (kEvidenceCap / kDecayPerFrame
+        // frames after its last sighting), not dropped as soon as its score slips.
+        s = s + 1.f >= kMaskedAt ? kEvidenceCap : s + 1.f;
+    }
+    if (dropped) {
+        std::size_t k = 0;
+        for (std::size_t i = 0; i < n; ++i)
+            if (!drop[i]) {
+                m.previous[k] = m.previous[i];
+                m.current[k] = m.current[i];
+                ++k;
+            }
+        m.previous.resize(k);
+        m.current.resize(k);
+    }
+    return dropped;
+}
+
+std::vector<RectF> ScreenFixedMap::regions() const
+{
+    std::vector<RectF> rects;
+    for (int y = 0; y < kRows; ++y)
+        for (int x = 0; x < kCols;) {
+            if (score_[std::size_t(y * kCols + x)] < kMaskedAt) {
+                ++x;
+                continue;
+            }
+            int end = x + 1;
+            while (end < kCols && score_[std::size_t(y * kCols + end)] >= kMaskedAt)
+                ++end;
+            rects.push_back({double(x) / kCols, double(y) / kRows, double(end - x) / kCols, 1.0 / kRows});
+            x = end;
+        }
+    return rects;
+}
+
+} // namespace uavstab
