@@ -1,5 +1,3 @@
-#include <cstdio>
-#include <cstdlib>
 #include "uavstab/motion_estimator.hpp"
 
 #include <algorithm>
@@ -62,7 +60,6 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
         if (result.screen_fixed)
             tracker_.dropTracks(dropped);
         tracker_.setAutoExclude(screen_fixed_->regions());  // evidence decays: every frame
-        if (getenv("SFDEBUG")) fprintf(stderr, "frame %u: points %zu dropped %d regions %zu\n", frame_count_, matches.current.size(), result.screen_fixed, screen_fixed_->regions().size());
     }
     result.points = int(matches.current.size());
     result.tracks.reserve(matches.current.size());

@@ -13,6 +13,10 @@ constexpr double kMovingPx = 1.5;       // analysis px: "moved clearly"
 constexpr double kStillShare = 0.2;     // moved less than this share of what the scene did: stayed put
 constexpr double kInlierPx = 1.5;       // the fit of the moving tracks, as the estimator's
 constexpr int kMinMoving = 3;           // moving inliers needed to trust their motion
+constexpr double kMinSpread = 0.25;     // share of width and height they must span
+constexpr double kMinAgreeing = 0.6;    // share of the moving tracks that must agree
+constexpr double kMaxAngle = 0.01;      // 0.6 degrees per frame
+constexpr double kMaxLogScale = 0.004;  // 0.4 % per frame (objects moving apart look like a zoom)
 constexpr float kEvidenceCap = 10.f;
 constexpr float kMaskedAt = 2.f;        // evidence that makes a cell excluded
 constexpr float kDecayPerFrame = 0.02f; // a cell is freed 400 frames after the last sighting
@@ -55,7 +59,23 @@ int ScreenFixedMap::filter(PointMatches &m, int width, int height, double scale,
     if (int(moving_from.size()) < kMinMoving || moving_from.size() == n)
         return 0;
     const RobustFit fit = fitRobust(MotionModel::Similarity, moving_from, moving_to, kInlierPx * scale, seed);
-    if (fit.inlier_count < kMinMoving)
+    // Most of the moving tracks must agree, on a motion a camera makes between two frames
+    // (objects moving each their own way do not).
+    if (fit.inlier_count < kMinMoving || fit.inlier_count < kMinAgreeing * double(moving_from.size()) ||
+        std::abs(fit.motion.angle) > kMaxAngle || std::abs(std::log(fit.motion.scale)) > kMaxLogScale)
+        return 0;
+    // The camera moved only if the agreeing tracks are spread over the picture: a compact
+    // group is more likely an object moving before a camera that holds still (the still
+    // tracks are then the scene, not an overlay).
+    double x0 = width, x1 = -width, y0 = height, y1 = -height;
+    for (std::size_t k = 0; k < moving_from.size(); ++k)
+        if (fit.inliers[k]) {
+            x0 = std::min(x0, moving_from[k].x);
+            x1 = std::max(x1, moving_from[k].x);
+            y0 = std::min(y0, moving_from[k].y);
+            y1 = std::max(y1, moving_from[k].y);
+        }
+    if (x1 - x0 < kMinSpread * width || y1 - y0 < kMinSpread * height)
         return 0;
 
     // ... would have moved these clearly, but they (nearly) stayed put.

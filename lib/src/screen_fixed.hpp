@@ -1,17 +1,19 @@
 // Internal: automatic exclusion of screen-fixed overlays (StabilizerConfig::exclude_static).
 //
-// A burned-in OSD does not move when the camera shakes. Each frame, the tracks that stayed
-// put (under kStaticPx analysis pixels) are compared with the motion the *other* tracks
-// agree on (a robust fit of the moving ones): where that motion would have moved them
-// clearly (over kMovingPx), they are screen-fixed. They are dropped from this frame's fit,
-// and their place gains evidence on a coarse grid of the frame; cells with enough
-// evidence are handed to the tracker as excluded regions (no corners detected there, tracks
-// near them dropped). Evidence decays, so a cell is freed a while after the last sighting
-// (and caught again within a frame or two if the overlay is still there).
+// A burned-in OSD does not move when the camera shakes. Each frame, a robust fit of the
+// tracks that clearly moved (over 1.5 analysis px) gives the camera's motion, if it looks
+// like one: most of them agree, they are spread over at least a quarter of the width and
+// height, with little rotation or scale. Tracks that this motion would have moved clearly
+// but that moved less than a fifth of that are screen-fixed: they are dropped from this
+// frame's fit and from the tracker, and their place gains evidence on a 32x18 grid; a cell
+// seen twice is handed to the tracker as an excluded region (no corners detected there,
+// tracks near it dropped) until ~400 frames after its last sighting.
 //
 // A scene point near the centre of a rotation or zoom does not move either, but there the
 // fitted motion is small too: it is never taken for an overlay. When the camera holds
-// still nothing is flagged (nor needs to be: the overlay agrees with the scene then).
+// still nothing is flagged (nor needs to be: the overlay agrees with the scene then), and
+// objects moving before a still camera do not pass for a camera motion (they are compact,
+// or do not agree, or look like a zoom or a turn): tests/unit/exclude_test.cpp.
 #pragma once
 
 #include <array>
