@@ -5,7 +5,9 @@
 //
 // Adding a tunable: a member of StabilizerConfig (with its default) and one row in
 // lib/src/config_params.cpp. An enum field also needs its GEnum type in
-// gst/uavstabilize_enums.cpp (the element looks it up by field name).
+// gst/uavstabilize_enums.cpp (the element looks it up by field name). A field that is not a
+// number (exclude: a list of rectangles) is a text row (textParam): the library parses and
+// checks its text, the element makes a string property of it.
 #pragma once
 
 #include <algorithm>
