@@ -182,6 +182,51 @@ TEST(Exclude, NoTrackInsideAnExcludedRegion)
     EXPECT_GT(seen, 20 * 20);  // the rest of the frame is still tracked
 }
 
+// Changed on a running stabilizer, the regions apply from the next pushed frame; the
+// frames' tracks (FrameStats::tracks) show it, with their inlier flags.
+TEST(Exclude, ChangedWhileRunningAndVisibleInTheFramesTracks)
+{
+    synthetic::FlightOptions options;
+    options.frames = 40;
+    const synthetic::ShakyFlight flight(options);
+    StabilizerConfig config;
+    config.threads = 2;
+    config.delay = 5;
+    Stabilizer stabilizer(config);
+    std::vector<StabilizedFrame> frames;
+    for (int i = 0; i < flight.frameCount(); ++i) {
+        if (i == 20) {
+            config.exclude = {{0.0, 0.0, 0.5, 1.0}};
+            stabilizer.setConfig(config);
+        }
+        stabilizer.push(test::BufferSlot::make(flight.render(i), i));
+        while (auto f = stabilizer.tryPop())
+            frames.push_back(std::move(*f));
+    }
+    stabilizer.flush();
+    while (auto f = stabilizer.waitPop())
+        frames.push_back(std::move(*f));
+    ASSERT_EQ(int(frames.size()), flight.frameCount());
+    int left_before = 0;
+    for (const StabilizedFrame &f : frames) {
+        const int id = test::BufferSlot::of(f).id();
+        ASSERT_EQ(int(f.stats.tracks.size()), f.stats.points) << id;
+        int inliers = 0, left = 0;
+        for (const TrackedPoint &t : f.stats.tracks) {
+            inliers += t.inlier;
+            left += t.position.x < -0.0;
+        }
+        EXPECT_EQ(inliers, f.stats.inliers) << id;
+        if (id < 20)
+            left_before += left;
+        else
+            EXPECT_EQ(left, 0) << "frame " << id;
+        if (id > 0)
+            EXPECT_GT(f.stats.points, 10) << id;
+    }
+    EXPECT_GT(left_before, 100);
+}
+
 // --- The OSD flight -------------------------------------------------------------------
 
 namespace {
