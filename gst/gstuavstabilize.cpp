@@ -171,11 +171,14 @@ void setProperty(GObject *object, guint id, const GValue *value, GParamSpec *psp
     auto *self = GST_UAV_STABILIZE(object);
     GST_OBJECT_LOCK(self);
     const int old_delay = self->settings->stabilizer.delay;
-    const bool known = gstuavstab::setProperty(*self->settings, id, value);
+    std::string refusal;
+    const bool known = gstuavstab::setProperty(*self->settings, id, value, &refusal);
     const bool delay_changed = self->settings->stabilizer.delay != old_delay;
     GST_OBJECT_UNLOCK(self);
     if (!known)
         G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
+    if (!refusal.empty())  // as GLib warns about a number out of a property's range
+        g_warning("%s: %s; keeping the previous value", GST_OBJECT_NAME(self), refusal.c_str());
     if (delay_changed)
         gstuavstab::postLatencyChanged(self);
 }

@@ -56,6 +56,8 @@ GParamSpec *specFor(const uavstab::ConfigParam &p)
         return g_param_spec_double(name, p.nick, p.blurb, p.min, p.max, d, flags);
     case uavstab::ParamKind::Bool:
         return g_param_spec_boolean(name, p.nick, p.blurb, d != 0.0, flags);
+    case uavstab::ParamKind::String:
+        return g_param_spec_string(name, p.nick, p.blurb, g_intern_string(p.defaultText().c_str()), flags);
     case uavstab::ParamKind::Enum: {
         const GType type = uavstabilize_enum_type_for_field(p.name);
         if (type == G_TYPE_INVALID)
@@ -137,8 +139,20 @@ void markEnumTypesAsPluginApi()
             gst_type_mark_as_plugin_api(uavstabilize_enum_type_for_field(p.name), GstPluginAPIFlags(0));
 }
 
-bool setProperty(UavStabilizeSettings &settings, guint id, const GValue *value)
+bool setProperty(UavStabilizeSettings &settings, guint id, const GValue *value, std::string *refusal)
 {
+    const uavstab::ConfigParam *text_row = rowFor(id);
+    if (text_row && text_row->kind == uavstab::ParamKind::String) {
+        // The library parses the text (so both accept the same strings); a refused text
+        // leaves the setting as it was.
+        const gchar *text = g_value_get_string(value);
+        std::string why;
+        if (text_row->setText(settings.stabilizer, text ? text : "", &why))
+            settings.dirty = true;
+        else if (refusal)
+            *refusal = std::string(propertyName(*text_row)) + ": '" + (text ? text : "") + "' refused: " + why;
+        return true;
+    }
     if (const uavstab::ConfigParam *p = rowFor(id)) {
         // GLib 2.74 checks a double property's range in float precision
         // (param_double_is_valid), so a value just outside it (1.0000001 for max 1) gets
@@ -160,7 +174,10 @@ bool setProperty(UavStabilizeSettings &settings, guint id, const GValue *value)
 
 bool getProperty(const UavStabilizeSettings &settings, guint id, GValue *value)
 {
-    if (const uavstab::ConfigParam *p = rowFor(id))
+    const uavstab::ConfigParam *p = rowFor(id);
+    if (p && p->kind == uavstab::ParamKind::String)
+        g_value_set_string(value, p->getText(settings.stabilizer).c_str());
+    else if (p)
         setFromDouble(value, p->get(settings.stabilizer));
     else if (id == propPostMessages())
         g_value_set_boolean(value, settings.post_messages);

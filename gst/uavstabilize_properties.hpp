@@ -3,6 +3,8 @@
 // the element's own options. Callers hold the object lock.
 #pragma once
 
+#include <string>
+
 #include <glib-object.h>
 
 #include "uavstab/config_params.hpp"
@@ -13,8 +15,9 @@ namespace gstuavstab {
 void installProperties(GObjectClass *gobject_class);
 // The GEnum types of the table's enum fields are plugin API (documented with the element).
 void markEnumTypesAsPluginApi();
-// False for an id that is not one of ours.
-bool setProperty(UavStabilizeSettings &settings, guint id, const GValue *value);
+// False for an id that is not one of ours. A text the library refuses (exclude) leaves the
+// setting unchanged and says why in *refusal (for the caller to warn about, unlocked).
+bool setProperty(UavStabilizeSettings &settings, guint id, const GValue *value, std::string *refusal = nullptr);
 bool getProperty(const UavStabilizeSettings &settings, guint id, GValue *value);
 // The property of a table row: the field name with '-' for '_' ("smoothing-radius").
 const char *propertyName(const uavstab::ConfigParam &param);

@@ -12,6 +12,12 @@ void StabilizerConfig::validate() const
 {
     // Every field against its row in the parameter table (config_params.cpp).
     for (const ConfigParam &p : configParams()) {
+        if (p.kind == ParamKind::String) {
+            const std::string why = p.checkText(*this);
+            if (!why.empty())
+                throw std::invalid_argument(std::string("StabilizerConfig: ") + p.name + ": " + why);
+            continue;
+        }
         const double value = p.get(*this);
         if (!p.accepts(value)) {
             std::ostringstream message;

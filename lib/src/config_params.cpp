@@ -3,11 +3,28 @@
 #include <cmath>
 #include <sstream>
 
+#include "uavstab/exclude_regions.hpp"
+
 namespace uavstab {
 
 namespace {
 
 using C = StabilizerConfig;
+
+std::string excludeText(const C &c)
+{
+    return formatRects(c.exclude);
+}
+
+bool setExcludeText(C &c, const std::string &text, std::string *error)
+{
+    return parseRects(text, c.exclude, error);
+}
+
+std::string checkExclude(const C &c)
+{
+    return checkRects(c.exclude);
+}
 
 std::vector<ConfigParam> makeTable()
 {
@@ -64,12 +81,24 @@ std::vector<ConfigParam> makeTable()
                               0.0001, 0.1),
         param<&C::border>("border", "Border", "What uncovered output pixels show", BorderMode::Black,
                           BorderMode::Replicate),
+        textParam("exclude", "Excluded regions",
+                  "Screen-fixed overlays to ignore (OSD, HUD, timestamp): rectangles x,y,w,h in fractions of the "
+                  "frame, separated by ';' (e.g. \"0,0,1,0.1;0.45,0.45,0.1,0.1\"); no corners are detected there "
+                  "and tracks inside are not used for the motion fit. Empty: none",
+                  &excludeText, &setExcludeText, &checkExclude),
+        flag<&C::exclude_static>("exclude_static", "Exclude static",
+                                 "Find screen-fixed overlays automatically: tracks that stay put while the rest of "
+                                 "the picture moves are not used, and no corners are detected where they keep "
+                                 "showing up (for a while)"),
         param<&C::analysis_width>("analysis_width", "Analysis width",
                                   "Motion is estimated on luma downscaled to this width (full size when smaller)", 16,
                                   16384),
         param<&C::threads>("threads", "Threads", "Warp worker threads (0 = one per core)", 0, 64, kParamAtStartOnly),
         flag<&C::bypass>("bypass", "Bypass",
                          "Pass frames through untouched, with the same delay (toggling never reorders frames)"),
+        flag<&C::debug_overlay>("debug_overlay", "Debug overlay",
+                                "Draw on each stabilized frame the tracked points (inliers green, rejected red), the "
+                                "excluded regions (yellow) and the input frame's edges (the crop window's room, blue)"),
     };
 }
 
@@ -84,6 +113,8 @@ std::string formatNumber(double value)
 
 bool ConfigParam::accepts(double value) const
 {
+    if (kind == ParamKind::String)
+        return true;  // no number to check: checkText() checks the field
     if (!(value >= min && value <= max))  // NaN fails too
         return false;
     if (kind == ParamKind::Double)

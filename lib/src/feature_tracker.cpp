@@ -40,6 +40,7 @@ LkGeometry lkGeometry(cv::Size size, int max_window)
 
 struct FeatureTracker::Impl {
     StabilizerConfig config;
+    std::vector<RectF> auto_exclude;
     LumaExtractor luma;
     std::vector<cv::Mat> previous_pyramid, current_pyramid;
     std::vector<cv::Point2f> tracks;  // positions in the previous frame, analysis pixels
@@ -55,6 +56,12 @@ struct FeatureTracker::Impl {
     LkGeometry lk{};
 
     void detect(const std::vector<cv::Mat> &pyramid);
+    // config.exclude in pixels of an image of `size` (the analysis image or a pyramid
+    // level), each grown by `margin` pixels and clipped to the image.
+    std::vector<cv::Rect> excluded(cv::Size size, int margin) const;
+    // Margin around excluded rectangles, analysis pixels: half the LK window, so that no
+    // kept track's window sees the overlay.
+    int excludeMargin() const { return lk.window.width / 2; }
     Point2 toFrame(cv::Point2f p) const;
 };
 
@@ -86,6 +93,23 @@ void FeatureTracker::setConfig(const StabilizerConfig &config)
     }
 }
 
+void FeatureTracker::setAutoExclude(std::vector<RectF> regions)
+{
+    impl_->auto_exclude = std::move(regions);
+}
+
+void FeatureTracker::dropTracks(const std::vector<std::uint8_t> &drop)
+{
+    std::vector<cv::Point2f> &tracks = impl_->tracks;
+    if (drop.size() != tracks.size())
+        return;  // not the last result's tracks (re-detected or reset since): nothing to do
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < tracks.size(); ++i)
+        if (!drop[i])
+            tracks[k++] = tracks[i];
+    tracks.resize(k);
+}
+
 void FeatureTracker::Impl::detect(const std::vector<cv::Mat> &pyramid)
 {
     // Corners are found on the half-size level when it is big enough: a quarter of the
@@ -104,13 +128,41 @@ void FeatureTracker::Impl::detect(const std::vector<cv::Mat> &pyramid)
         return;
     // Spread the corners: about one per (region area / max_corners), but not too sparse.
     const double spacing = std::sqrt(double(region.area()) / config.max_corners) * 0.5;
+    cv::Mat mask;  // excluded regions: no corners there (nor in the quality level's maximum)
+    if (!config.exclude.empty() || !auto_exclude.empty()) {
+        mask = cv::Mat(region.size(), CV_8UC1, cv::Scalar(255));
+        for (const cv::Rect &r : excluded(image.size(), (excludeMargin() + (1 << level) - 1) >> level)) {
+            const cv::Rect inside = (r & region) - region.tl();
+            if (!inside.empty())
+                mask(inside).setTo(0);
+        }
+        if (cv::countNonZero(mask) == 0)
+            return;
+    }
     cv::goodFeaturesToTrack(image(region), tracks, config.max_corners, kQualityLevel,
-                            std::clamp(spacing, 2.0, 30.0));
+                            std::clamp(spacing, 2.0, 30.0), mask);
     const float scale = float(1 << level), offset = 0.5f * (scale - 1.0f);  // level pixel -> level 0
     for (auto &p : tracks) {
         p.x = (p.x + float(region.x)) * scale + offset;
         p.y = (p.y + float(region.y)) * scale + offset;
     }
+}
+
+std::vector<cv::Rect> FeatureTracker::Impl::excluded(cv::Size size, int margin) const
+{
+    std::vector<cv::Rect> rects;
+    const cv::Rect image(0, 0, size.width, size.height);
+    for (const std::vector<RectF> *list : {&config.exclude, &auto_exclude})
+        for (const RectF &f : *list) {
+            const int x0 = int(std::floor(f.x * size.width)) - margin;
+            const int y0 = int(std::floor(f.y * size.height)) - margin;
+            const int x1 = int(std::ceil((f.x + f.w) * size.width)) + margin;
+            const int y1 = int(std::ceil((f.y + f.h) * size.height)) + margin;
+            const cv::Rect r = cv::Rect(x0, y0, x1 - x0, y1 - y0) & image;
+            if (!r.empty())
+                rects.push_back(r);
+        }
+    return rects;
 }
 
 Point2 FeatureTracker::Impl::toFrame(cv::Point2f p) const
@@ -173,10 +225,21 @@ PointMatches FeatureTracker::track(const FrameView &frame)
                                          d.status_backward, cv::noArray(), d.lk.window, d.lk.levels, criteria);
             }
             const float limit2 = float(d.config.fb_threshold * d.config.fb_threshold);
+            // Tracks that come near an excluded region (a screen-fixed overlay) are dropped:
+            // their window would see the overlay, which does not move with the scene.
+            const std::vector<cv::Rect> excluded = d.excluded(d.analysis, d.excludeMargin());
+            auto isExcluded = [&](cv::Point2f p) {
+                return std::any_of(excluded.begin(), excluded.end(), [&](const cv::Rect &r) {
+                    return p.x >= float(r.x) && p.y >= float(r.y) && p.x < float(r.x + r.width) &&
+                           p.y < float(r.y + r.height);
+                });
+            };
             for (std::size_t k = 0; k < d.kept.size(); ++k) {
                 const std::size_t i = d.kept[k];
                 const cv::Point2f e = d.backward[k] - d.tracks[i];
                 if (!d.status_backward[k] || e.dot(e) > limit2)
+                    continue;
+                if (!excluded.empty() && (isExcluded(d.forward[i]) || isExcluded(d.tracks[i])))
                     continue;
                 matches.previous.push_back(d.toFrame(d.tracks[i]));
                 matches.current.push_back(d.toFrame(d.forward[i]));

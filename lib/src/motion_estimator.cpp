@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "screen_fixed.hpp"
+
 namespace uavstab {
 
 namespace {
@@ -22,9 +24,12 @@ bool plausible(const Similarity &m, int width, int height)
 } // namespace
 
 MotionEstimator::MotionEstimator(const StabilizerConfig &config)
-    : config_(config), tracker_(config), selector_(config.model, config.dwell)
+    : config_(config), tracker_(config), selector_(config.model, config.dwell),
+      screen_fixed_(std::make_unique<ScreenFixedMap>())
 {
 }
+
+MotionEstimator::~MotionEstimator() = default;
 
 void MotionEstimator::reset()
 {
@@ -34,6 +39,10 @@ void MotionEstimator::reset()
 
 void MotionEstimator::setConfig(const StabilizerConfig &config)
 {
+    if (!config.exclude_static && config_.exclude_static) {
+        screen_fixed_->clear();
+        tracker_.setAutoExclude({});
+    }
     config_ = config;
     tracker_.setConfig(config);
     selector_.setChoice(config.model, config.dwell);
@@ -42,8 +51,20 @@ void MotionEstimator::setConfig(const StabilizerConfig &config)
 MotionEstimate MotionEstimator::estimate(const FrameView &frame)
 {
     MotionEstimate result;
-    const PointMatches matches = tracker_.track(frame);
+    PointMatches matches = tracker_.track(frame);
+    const double scale = std::max(1.0, double(frame.width) / std::min(frame.width, config_.analysis_width));
+    if (config_.exclude_static && !matches.first) {
+        std::vector<std::uint8_t> dropped;
+        result.screen_fixed =
+            screen_fixed_->filter(matches, frame.width, frame.height, scale, frame_count_ + 1, dropped);
+        if (result.screen_fixed)
+            tracker_.dropTracks(dropped);
+        tracker_.setAutoExclude(screen_fixed_->regions());  // evidence decays: every frame
+    }
     result.points = int(matches.current.size());
+    result.tracks.reserve(matches.current.size());
+    for (const Point2 &p : matches.current)
+        result.tracks.push_back({p, false});
     if (matches.first) {
         result.first = true;
         return result;
@@ -54,7 +75,6 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
         return result;
     }
 
-    const double scale = std::max(1.0, double(frame.width) / std::min(frame.width, config_.analysis_width));
     const double threshold = kInlierThresholdAnalysisPx * scale;
     const std::uint32_t seed = ++frame_count_;
     // The motion maps this frame's points onto the previous frame's.
@@ -77,8 +97,12 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
     result.model = model;
     result.inliers = fit.inlier_count;
     result.rms = fit.rms;
+    for (std::size_t i = 0; i < result.tracks.size() && i < fit.inliers.size(); ++i)
+        result.tracks[i].inlier = fit.inliers[i] != 0;
     if (fit.inlier_count < config_.min_points || !plausible(fit.motion, frame.width, frame.height)) {
         result.skipped = true;
+        for (TrackedPoint &t : result.tracks)
+            t.inlier = false;
         result.lost = true;
         return result;
     }

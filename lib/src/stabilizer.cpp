@@ -4,6 +4,7 @@
 #include <atomic>
 #include <stdexcept>
 
+#include "uavstab/debug_overlay.hpp"
 #include "uavstab/frame_warper.hpp"
 #include "worker_pool.hpp"
 
@@ -29,6 +30,8 @@ struct Stabilizer::Pending {
     Outcome outcome = Outcome::Warped;
     std::string error;          // written under Stabilizer::mutex_
     std::atomic<int> stripes_left{0};
+    // config.debug_overlay: the config to draw the overlay with once the warp is done.
+    std::shared_ptr<const StabilizerConfig> overlay;
     bool ready = false;         // under Stabilizer::mutex_
 };
 
@@ -133,12 +136,13 @@ void Stabilizer::push(std::unique_ptr<FrameSlot> slot)
 
     Held held;
     try {
-        const MotionEstimate estimate = estimator_.estimate(frame);
+        MotionEstimate estimate = estimator_.estimate(frame);
         held.stats.motion = estimate.motion;
         held.stats.model = estimate.model;
         held.stats.points = estimate.points;
         held.stats.inliers = estimate.inliers;
         held.stats.skipped = estimate.skipped;
+        held.stats.tracks = std::move(estimate.tracks);
         // A lost view (scene cut, flash) starts a new path: smoothing must not pull the
         // frames of one scene towards those of another.
         discontinuity_ = discontinuity_ || estimate.lost;
@@ -290,6 +294,8 @@ void Stabilizer::planAndWarp(PlanJob &job)
     rows = (rows + kStripeAlign - 1) / kStripeAlign * kStripeAlign;
     const int count = (height + rows - 1) / rows;
     pending->stripes_left = count;
+    if (job.config->debug_overlay)
+        pending->overlay = job.config;
     for (int s = 1; s < count; ++s) {
         const int begin = s * rows, end = std::min(height, begin + rows);
         pool_->submit([this, pending, border, begin, end] { runStripe(pending, border, begin, end); });
@@ -313,6 +319,16 @@ void Stabilizer::completeStripe(const std::shared_ptr<Pending> &pending)
 {
     if (pending->stripes_left.fetch_sub(1) != 1)
         return;
+    if (pending->overlay) {  // the whole frame is warped: draw over it
+        bool warped;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            warped = pending->outcome == Outcome::Warped;
+        }
+        if (warped)
+            drawDebugOverlay(pending->output, pending->stats, pending->overlay->exclude);
+        pending->overlay.reset();
+    }
     std::function<void()> callback;
     {
         std::lock_guard<std::mutex> lock(mutex_);

@@ -64,6 +64,8 @@ double elementValue(GstElement *element, const ConfigParam &p)
         v = g_value_get_boolean(&value) ? 1 : 0;
     else if (G_VALUE_HOLDS_ENUM(&value))
         v = g_value_get_enum(&value);
+    else if (G_VALUE_HOLDS_STRING(&value))
+        v = p.get(uavstab::StabilizerConfig{});  // a text row has no number (see elementText)
     else
         fail("unexpected type for %s", spec->name);
     g_value_unset(&value);
@@ -100,6 +102,34 @@ bool elementAccepts(const ConfigParam &p, double v)
     return accepted;
 }
 
+// A text property's current value.
+std::string elementText(GstElement *element, const ConfigParam &p)
+{
+    gchar *text = nullptr;
+    g_object_get(element, specOf(element, p)->name, &text, nullptr);
+    std::string value = text ? text : "";
+    g_free(text);
+    return value;
+}
+
+// Sets a text property on `element` as gst-launch does; true when it was taken without a
+// warning. A refused text must leave the value as it was.
+bool elementAcceptsText(GstElement *element, const ConfigParam &p, const std::string &text)
+{
+    const std::string before = elementText(element, p);
+    _gst_check_expecting_log = TRUE;
+    _gst_check_raised_warning = FALSE;
+    _gst_check_raised_critical = FALSE;
+    g_object_set(element, specOf(element, p)->name, text.c_str(), nullptr);
+    const bool warned = _gst_check_raised_warning || _gst_check_raised_critical;
+    _gst_check_expecting_log = FALSE;
+    _gst_check_raised_warning = FALSE;
+    _gst_check_raised_critical = FALSE;
+    if (warned)
+        fail_unless_equals_string(elementText(element, p).c_str(), before.c_str());
+    return !warned;
+}
+
 double below(const ConfigParam &p)
 {
     return p.kind == ParamKind::Double ? std::nextafter(p.min, -std::numeric_limits<double>::infinity()) : p.min - 1;
@@ -121,7 +151,9 @@ void runWithEveryPropertyAt(bool at_max)
             v = 8;  // 64 threads work too, but are slow to start under the sanitizers
         GValue value = G_VALUE_INIT;
         g_value_init(&value, specOf(element, p)->value_type);
-        if (G_VALUE_HOLDS_UINT(&value))
+        if (G_VALUE_HOLDS_STRING(&value))  // exclude: none, or a full frame's worth
+            g_value_set_string(&value, at_max ? "0,0,1,0.1;0.45,0.45,0.1,0.1;0,0.9,1,0.1;0,0,0.2,1" : "");
+        else if (G_VALUE_HOLDS_UINT(&value))
             g_value_set_uint(&value, guint(v));
         else if (G_VALUE_HOLDS_INT(&value))
             g_value_set_int(&value, gint(v));
@@ -214,6 +246,11 @@ ELEMENT_TEST(every_config_field_is_a_property_with_its_range_and_default)
             fail_unless_equals_int(G_PARAM_SPEC_ENUM(spec)->default_value, int(p.defaultValue()));
             break;
         }
+        case ParamKind::String:
+            fail_unless(G_IS_PARAM_SPEC_STRING(spec), "%s: not a string property", name);
+            fail_unless_equals_string(G_PARAM_SPEC_STRING(spec)->default_value, p.defaultText().c_str());
+            fail_unless_equals_string(elementText(element, p).c_str(), p.defaultText().c_str());
+            break;
         }
     }
     // The element's own properties are not in the table.
@@ -266,6 +303,39 @@ ELEMENT_TEST(an_even_tracking_window_is_rounded_up_by_the_element)
     gst_object_unref(element);
 }
 
+// Text properties (exclude): the element takes exactly the strings the library's parser
+// takes, reads back the library's text of them, and refuses the others with a warning,
+// keeping the previous value.
+ELEMENT_TEST(element_and_library_accept_and_refuse_the_same_strings)
+{
+    const char *texts[] = {
+        "", "0,0,1,0.1;0.45,0.45,0.1,0.1", " 0.1 , 0.2,0.3 ,0.4 ; ", ";;", "0,0,1,1", "+.5,0,5e-1,1e0",
+        "0,0,1", "0,0,1,0.1,0.2", "a,0,1,0.1", "0,0,0,0.1", "-0.1,0,0.5,0.5", "0.6,0,0.5,0.1",
+        "nan,0,1,0.1", "0,0,inf,0.1", "0,0,1,0.1;garbage", "0 0 1 0.1", "0,0,1,0.1x",
+    };
+    bool any_text_row = false;
+    for (const ConfigParam &p : uavstab::configParams()) {
+        if (p.kind != ParamKind::String)
+            continue;
+        any_text_row = true;
+        GstElement *element = makeStabilizer();
+        for (const char *text : texts) {
+            uavstab::StabilizerConfig config;
+            std::string why;
+            const bool library = p.setText(config, text, &why);
+            const bool element_took = elementAcceptsText(element, p, text);
+            fail_unless(library == element_took, "%s = '%s': the library %s it, the element %s it", p.name, text,
+                        library ? "accepts" : "refuses", element_took ? "accepts" : "refuses");
+            if (library) {
+                fail_unless_equals_string(elementText(element, p).c_str(), p.getText(config).c_str());
+                config.validate();  // what the element hands on is valid
+            }
+        }
+        gst_object_unref(element);
+    }
+    fail_unless(any_text_row, "no text row in the table (exclude)");
+}
+
 ELEMENT_TEST(every_property_at_its_min_runs)
 {
     runWithEveryPropertyAt(false);
@@ -292,6 +362,7 @@ int main(int argc, char **argv)
     tcase_add_test(tc, every_config_field_is_a_property_with_its_range_and_default);
     tcase_add_test(tc, element_and_library_accept_and_refuse_the_same_values);
     tcase_add_test(tc, an_even_tracking_window_is_rounded_up_by_the_element);
+    tcase_add_test(tc, element_and_library_accept_and_refuse_the_same_strings);
     tcase_add_test(tc, every_property_at_its_min_runs);
     tcase_add_test(tc, every_property_at_its_max_runs);
     return runSuite(s) == 0 ? 0 : 1;

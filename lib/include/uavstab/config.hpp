@@ -5,8 +5,19 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace uavstab {
+
+// A rectangle in fractions of the frame's width and height: (0, 0) is the top-left
+// corner, (1, 1) the bottom-right one.
+struct RectF {
+    double x = 0.0;
+    double y = 0.0;
+    double w = 0.0;
+    double h = 0.0;
+    bool operator==(const RectF &o) const { return x == o.x && y == o.y && w == o.w && h == o.h; }
+};
 
 enum class ModelChoice {
     Hybrid,      // paper: rigid or similarity, re-chosen every `dwell` frames by RMS error
@@ -80,6 +91,15 @@ struct StabilizerConfig {
     double zoom_speed = 0.001;
     BorderMode border = BorderMode::Black;
 
+    // Screen-fixed overlays to ignore (a burned-in OSD, a HUD, a timestamp): no corners are
+    // detected inside these rectangles, and tracks that fall inside are not used for the
+    // motion fit. Fractions of the frame; as text "x,y,w,h;x,y,w,h" (exclude_regions.hpp).
+    std::vector<RectF> exclude;
+    // Find such overlays by themselves: tracks that stay put while the others agree the
+    // camera moved are dropped from the fit, and where they keep showing up no corners
+    // are detected for a while (lib/src/screen_fixed.hpp).
+    bool exclude_static = false;
+
     // Motion is estimated on luma downscaled to this width (full size when smaller);
     // the motion is scaled back to full resolution.
     int analysis_width = 640;
@@ -89,6 +109,11 @@ struct StabilizerConfig {
 
     // Pass frames through untouched (same delay, so toggling never reorders frames).
     bool bypass = false;
+
+    // Draw on each warped output frame what the estimator saw (debug_overlay.hpp): the
+    // tracked points (inliers green, rejected red), the excluded rectangles and where the
+    // input frame's edges (the room of the crop window) fall.
+    bool debug_overlay = false;
 
     // Throws std::invalid_argument naming the first field out of its range (the parameter
     // table's, config_params.hpp) and that range.

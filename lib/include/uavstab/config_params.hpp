@@ -5,7 +5,9 @@
 //
 // Adding a tunable: a member of StabilizerConfig (with its default) and one row in
 // lib/src/config_params.cpp. An enum field also needs its GEnum type in
-// gst/uavstabilize_enums.cpp (the element looks it up by field name).
+// gst/uavstabilize_enums.cpp (the element looks it up by field name). A field that is not a
+// number (exclude: a list of rectangles) is a text row (textParam): the library parses and
+// checks its text, the element makes a string property of it.
 #pragma once
 
 #include <algorithm>
@@ -23,6 +25,7 @@ enum class ParamKind {
     Double,  // double field
     Bool,    // bool field
     Enum,    // enum class field with values min..max (contiguous)
+    String,  // a field read and written as text (getText/setText/checkText); min = max = 0
 };
 
 enum ParamFlags : unsigned {
@@ -44,12 +47,21 @@ struct ConfigParam {
     unsigned flags;
     // The field's value as a double (bool: 0/1, enum: its underlying value), and back.
     // set() takes a value within [min, max].
+    // String rows: get() is 0 and set() does nothing; the text functions below do.
     double (*get)(const StabilizerConfig &);
     void (*set)(StabilizerConfig &, double);
+    // String rows only (null otherwise): the field as text; parse the text into the field
+    // (false, the field untouched and the reason in *error, for a text it refuses); why the
+    // field's value is invalid ("" when it is valid; validate() asks this).
+    std::string (*getText)(const StabilizerConfig &) = nullptr;
+    bool (*setText)(StabilizerConfig &, const std::string &, std::string *error) = nullptr;
+    std::string (*checkText)(const StabilizerConfig &) = nullptr;
 
     // The field's value in a default-constructed StabilizerConfig (the defaults live in
     // config.hpp, next to each field).
     double defaultValue() const { return get(StabilizerConfig{}); }
+    // String rows: the default as text.
+    std::string defaultText() const { return getText ? getText(StabilizerConfig{}) : std::string(); }
     bool odd() const { return (flags & kParamOdd) != 0; }
     bool atStartOnly() const { return (flags & kParamAtStartOnly) != 0; }
     // Whether `value` is allowed: within [min, max] (never NaN), a whole number for
@@ -65,6 +77,12 @@ const std::vector<ConfigParam> &configParams();
 const ConfigParam *findConfigParam(const std::string &name);
 
 namespace detail {
+
+inline double noNumber(const StabilizerConfig &)
+{
+    return 0.0;
+}
+inline void ignoreNumber(StabilizerConfig &, double) {}
 
 template <typename C, typename T>
 T fieldTypeOf(T C::*);
@@ -123,6 +141,16 @@ ConfigParam flag(const char *name, const char *nick, const char *blurb, unsigned
     static_assert(std::is_same_v<detail::FieldType<Member>, bool>, "flag<> is for bool fields");
     return ConfigParam{name, nick, blurb, ParamKind::Bool, 0.0, 1.0, flags, &detail::getField<Member>,
                        &detail::setField<Member>};
+}
+
+// A row for a field kept as text: its readers and writers (see ConfigParam).
+inline ConfigParam textParam(const char *name, const char *nick, const char *blurb,
+                             std::string (*getText)(const StabilizerConfig &),
+                             bool (*setText)(StabilizerConfig &, const std::string &, std::string *),
+                             std::string (*checkText)(const StabilizerConfig &), unsigned flags = kParamNone)
+{
+    return ConfigParam{name,   nick, blurb, ParamKind::String, 0.0, 0.0, flags, &detail::noNumber, &detail::ignoreNumber,
+                       getText, setText, checkText};
 }
 
 } // namespace uavstab

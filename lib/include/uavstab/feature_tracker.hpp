@@ -3,6 +3,7 @@
 // consistency check (the paper's sections 3.1-3.2).
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -34,6 +35,12 @@ public:
     PointMatches track(const FrameView &frame);
     void reset();
     void setConfig(const StabilizerConfig &config);
+    // Regions excluded on top of config.exclude (found by the estimator: exclude_static),
+    // fractions of the frame; they apply from the next frame.
+    void setAutoExclude(std::vector<RectF> regions);
+    // Stops following the tracks of the last track() result flagged in `drop` (one flag
+    // per match, in order); fewer live tracks bring the next re-detection forward.
+    void dropTracks(const std::vector<std::uint8_t> &drop);
 
 private:
     struct Impl;

@@ -2,11 +2,18 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "uavstab/motion_model.hpp"
 #include "uavstab/similarity.hpp"
 
 namespace uavstab {
+
+// A track that survived into a frame (forward-backward check passed, not excluded).
+struct TrackedPoint {
+    Point2 position;      // in the frame, full-resolution centred coordinates (similarity.hpp)
+    bool inlier = false;  // consistent with the fitted motion (false for every point of a skipped frame)
+};
 
 struct FrameStats {
     std::int64_t index = 0;   // frames since construction or reset()
@@ -24,6 +31,9 @@ struct FrameStats {
     int inliers = 0;          // points consistent with the fitted motion
     bool skipped = false;     // no usable motion for this frame: identity was used
     bool segment_start = false;  // first frame after a start, reset or discontinuity
+    // The `points` tracks of this frame with their inlier flags (for debug overlays and
+    // analysis; input-frame coordinates: map them with output_to_input.inverse()).
+    std::vector<TrackedPoint> tracks;
 };
 
 } // namespace uavstab

@@ -2,10 +2,12 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "uavstab/config.hpp"
 #include "uavstab/feature_tracker.hpp"
+#include "uavstab/frame_stats.hpp"
 #include "uavstab/hybrid_selector.hpp"
 #include "uavstab/motion_model.hpp"
 
@@ -26,11 +28,20 @@ struct MotionEstimate {
     // should start afresh here rather than smooth across the change.
     bool lost = false;
     bool first = false;    // first frame of a sequence: nothing to compare with
+    int screen_fixed = 0;  // exclude_static: tracks dropped as screen-fixed
+    // The surviving tracks in this frame (full-resolution centred coordinates), each
+    // flagged when it is an inlier of the fit.
+    std::vector<TrackedPoint> tracks;
 };
+
+class ScreenFixedMap;
 
 class MotionEstimator {
 public:
     explicit MotionEstimator(const StabilizerConfig &config);
+    ~MotionEstimator();
+    MotionEstimator(const MotionEstimator &) = delete;
+    MotionEstimator &operator=(const MotionEstimator &) = delete;
 
     MotionEstimate estimate(const FrameView &frame);
     void reset();
@@ -41,6 +52,9 @@ private:
     FeatureTracker tracker_;
     HybridModelSelector selector_;
     std::uint32_t frame_count_ = 0;
+    // exclude_static: where screen-fixed tracks were seen. Kept across reset() (an overlay
+    // outlives a scene cut), cleared when the option is switched off.
+    std::unique_ptr<ScreenFixedMap> screen_fixed_;
 };
 
 } // namespace uavstab
