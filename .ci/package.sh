@@ -5,8 +5,9 @@
 #   - a program built with $(pkg-config --cflags --libs uavstab) stabilizes a few frames.
 # Then removes them again, so that no system copy of the plugin is left to compete with
 # the build tree's (GStreamer would load whichever it registers first).
-#   bash .ci/package.sh [out_dir]   (out_dir: where to keep the .debs; default: a temp dir,
-#                                    deleted at exit)
+#   bash .ci/package.sh [out_dir]       out_dir: where to keep the .debs (default: only in a
+#                                       temp dir, deleted at exit)
+#   bash .ci/package.sh --reuse dir     skip the build, check the .debs a run left in dir
 # Needs root (or sudo) for apt-get; Debian 12.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -34,31 +35,43 @@ trap cleanup EXIT
   dpkg-dev debhelper fakeroot build-essential gstreamer1.0-tools >/dev/null
 "${as_root[@]}" apt-get build-dep -y -qq "$src" >/dev/null
 
-# Build in a copy: dpkg-buildpackage writes its results into the parent directory, and
-# this keeps the clone (and its parent) clean. Only tracked files plus the working copy's
-# changes go in (git ls-files), never a build directory.
-mkdir "$work/uavstabilize"
-if git -C "$src" rev-parse --is-inside-work-tree >/dev/null 2>&1; then
-  (cd "$src" && git ls-files -z --cached --others --exclude-standard \
-     | while IFS= read -r -d '' f; do if [[ -e $f ]]; then printf '%s\0' "$f"; fi; done \
-     | xargs -0 cp --parents -t "$work/uavstabilize")
-else
-  tar -C "$src" --exclude='./build*' --exclude=./.git -cf - . | tar -C "$work/uavstabilize" -xf -
+reuse=""
+if [[ ${1:-} == --reuse ]]; then
+  reuse=${2:?package.sh: --reuse needs a directory}
+  shift 2
 fi
-start=$(date +%s)
-(cd "$work/uavstabilize" && dpkg-buildpackage -us -uc -b -j"$(nproc)") > "$work/build.log" 2>&1 || {
-  tail -n 60 "$work/build.log" >&2
-  echo "package.sh: dpkg-buildpackage failed" >&2
-  exit 1
-}
-echo "package.sh: built in $(( $(date +%s) - start )) s:"
-debs=("$work"/*.deb)
-for d in "${debs[@]}"; do
-  echo "  $(basename "$d")"
-  dpkg-deb -c "$d" | awk '{print "    " $NF}' | grep -v '/$'
-done
+
+if [[ -n $reuse ]]; then
+  cp "$reuse"/gstreamer1.0-uavstabilize_*.deb "$reuse"/libuavstab-dev_*.deb "$work"/
+else
+  # Build in a copy: dpkg-buildpackage writes its results into the parent directory, and
+  # this keeps the clone (and its parent) clean. Only tracked files plus the working
+  # copy's changes go in (git ls-files), never a build directory.
+  mkdir "$work/uavstabilize"
+  if git -C "$src" rev-parse --is-inside-work-tree >/dev/null 2>&1; then
+    (cd "$src" && git ls-files -z --cached --others --exclude-standard \
+       | while IFS= read -r -d '' f; do if [[ -e $f ]]; then printf '%s\0' "$f"; fi; done \
+       | xargs -0 cp --parents -t "$work/uavstabilize")
+  else
+    tar -C "$src" --exclude='./build*' --exclude=./.git -cf - . | tar -C "$work/uavstabilize" -xf -
+  fi
+  start=$(date +%s)
+  # noddebs: no -dbgsym package (not checked here, and it saves time).
+  (cd "$work/uavstabilize" && DEB_BUILD_OPTIONS="noddebs ${DEB_BUILD_OPTIONS:-}" \
+     dpkg-buildpackage -us -uc -b -j"$(nproc)") > "$work/build.log" 2>&1 || {
+    tail -n 60 "$work/build.log" >&2
+    echo "package.sh: dpkg-buildpackage failed" >&2
+    exit 1
+  }
+  echo "package.sh: dpkg-buildpackage took $(( $(date +%s) - start )) s"
+fi
 plugin_deb=$(ls "$work"/gstreamer1.0-uavstabilize_*.deb)
 dev_deb=$(ls "$work"/libuavstab-dev_*.deb)
+debs=("$plugin_deb" "$dev_deb")
+for d in "${debs[@]}"; do
+  echo "  $(basename "$d")"
+  dpkg-deb -c "$d" | awk '$1 !~ /^d/ {print "    " $6}'
+done
 if [[ $# -ge 1 ]]; then
   mkdir -p "$1"
   cp "${debs[@]}" "$1"/
@@ -66,7 +79,8 @@ fi
 
 # The plugin must land in GStreamer's own plugin directory.
 pluginsdir=$(pkg-config --variable=pluginsdir gstreamer-1.0)
-dpkg-deb -c "$plugin_deb" | grep -q " \.${pluginsdir}/libgstuavstabilize\.so$" || {
+plugin_files=$(dpkg-deb -c "$plugin_deb")
+grep -q " \.${pluginsdir}/libgstuavstabilize\.so$" <<<"$plugin_files" || {
   echo "package.sh: the plugin is not in $pluginsdir" >&2
   exit 1
 }
@@ -78,12 +92,14 @@ installed=1
 unset GST_PLUGIN_PATH GST_PLUGIN_PATH_1_0
 export GST_REGISTRY="$work/registry.bin"
 gst-inspect-1.0 uavstabilize > "$work/inspect.txt"
-grep -q "Filename *${pluginsdir}/libgstuavstabilize.so" "$work/inspect.txt" || {
+# (GStreamer may report it through /lib, the merged-/usr symlink: compare real paths.)
+loaded=$(awk '$1 == "Filename" {print $2; exit}' "$work/inspect.txt")
+[[ -n $loaded && $(readlink -f "$loaded") == $(readlink -f "$pluginsdir/libgstuavstabilize.so") ]] || {
   cat "$work/inspect.txt" >&2
   echo "package.sh: gst-inspect-1.0 did not load the installed plugin" >&2
   exit 1
 }
-echo "package.sh: gst-inspect-1.0 uavstabilize: $(grep -m1 'Filename' "$work/inspect.txt" | tr -s ' ')"
+echo "package.sh: gst-inspect-1.0 uavstabilize: loaded $loaded"
 gst-launch-1.0 -q videotestsrc num-buffers=60 pattern=ball ! video/x-raw,width=320,height=240 \
   ! uavstabilize ! fakesink
 echo "package.sh: pipeline with the installed plugin ran"
