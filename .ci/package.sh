@@ -3,8 +3,10 @@
 # from the system install alone:
 #   - gst-inspect-1.0 finds uavstabilize with no GST_PLUGIN_PATH, and a pipeline runs;
 #   - a program built with $(pkg-config --cflags --libs uavstab) stabilizes a few frames.
-# Then removes them again, so that no system copy of the plugin is left to compete with
-# the build tree's (GStreamer would load whichever it registers first).
+# Then removes them again. GStreamer knows a plugin by its file name and keeps the first
+# one its scan meets; GST_PLUGIN_PATH is scanned before the system directory, so the tests'
+# build-tree plugin would still win, but anything run without GST_PLUGIN_PATH (samples,
+# a test checking the plugin's absence, a stale registry) would get the system copy.
 #   bash .ci/package.sh [out_dir]       out_dir: where to keep the .debs (default: only in a
 #                                       temp dir, deleted at exit)
 #   bash .ci/package.sh --reuse dir     skip the build, check the .debs a run left in dir
@@ -32,7 +34,7 @@ trap cleanup EXIT
 
 # Build tools and the Build-Depends of debian/control.
 "${as_root[@]}" apt-get install -y -qq --no-install-recommends \
-  dpkg-dev debhelper fakeroot build-essential gstreamer1.0-tools >/dev/null
+  dpkg-dev debhelper fakeroot build-essential gstreamer1.0-tools gstreamer1.0-plugins-base >/dev/null
 "${as_root[@]}" apt-get build-dep -y -qq "$src" >/dev/null
 
 reuse=""
