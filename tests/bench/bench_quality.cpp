@@ -233,8 +233,11 @@ struct Method {
 
 std::vector<Method> methods(bool deshake, bool vidstab)
 {
+    // Named, not `{}` in each initializer: g++ 12 warns (falsely) that the config's
+    // vector member may be used uninitialized when it is brace-initialized in place.
+    const StabilizerConfig unused;
     std::vector<Method> m;
-    m.push_back({"input", "input (no stabilization)", "input", Kind::Input, {}, "input", -1});
+    m.push_back({"input", "input (no stabilization)", "input", Kind::Input, unused, "input", -1});
     for (int delay : kDelays)
         for (const OursEntry &e : oursTable()) {
             StabilizerConfig c = e.config;
@@ -243,12 +246,12 @@ std::vector<Method> methods(bool deshake, bool vidstab)
                          c, e.name, delay});
         }
     if (vidstab) {
-        m.push_back({"vidstab", "vid.stab default (optzoom=1)", "vid.stab", Kind::VidstabDefault, {}, "vidstab", -1});
-        m.push_back({"vidstab_zoom", "vid.stab zoom 8.7 % (= ours)", "vid.stab z8.7", Kind::VidstabZoom, {},
+        m.push_back({"vidstab", "vid.stab default (optzoom=1)", "vid.stab", Kind::VidstabDefault, unused, "vidstab", -1});
+        m.push_back({"vidstab_zoom", "vid.stab zoom 8.7 % (= ours)", "vid.stab z8.7", Kind::VidstabZoom, unused,
                      "vidstab_zoom", -1});
     }
     if (deshake)
-        m.push_back({"deshake", "ffmpeg deshake", "deshake", Kind::Deshake, {}, "deshake", -1});
+        m.push_back({"deshake", "ffmpeg deshake", "deshake", Kind::Deshake, unused, "deshake", -1});
     return m;
 }
 
