@@ -192,7 +192,9 @@ void controlStep(Rng &rng, Rig &rig)
     case 0: {  // a property
         const char *planners[] = {"optimal", "gaussian", "box"};
         const char *models[] = {"hybrid", "rigid", "similarity"};
-        switch (rng.range(0, 13)) {
+        // Valid exclude strings only: a refused one is a g_warning, fatal under gst-check.
+        const char *excludes[] = {"", "0,0,1,0.1", "0.4,0.4,0.2,0.2;0,0.9,1,0.1", "0,0,0.5,1"};
+        switch (rng.range(0, 16)) {
         case 0:
             rig.setProperty("delay", std::to_string(rng.range(0, 15)));
             break;
@@ -231,6 +233,15 @@ void controlStep(Rng &rng, Rig &rig)
             break;
         case 12:
             rig.setProperty("border", rng.chance(0.5) ? "black" : "replicate");
+            break;
+        case 13:
+            rig.setProperty("exclude", excludes[rng.range(0, 3)]);
+            break;
+        case 14:
+            rig.setProperty("exclude-static", rng.chance(0.5) ? "true" : "false");
+            break;
+        case 15:
+            rig.setProperty("debug-overlay", rng.chance(0.5) ? "true" : "false");
             break;
         default:
             rig.setProperty("limit-to-crop", rng.chance(0.5) ? "true" : "false");

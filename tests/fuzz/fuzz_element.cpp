@@ -115,8 +115,11 @@ void setProperty(Bytes &b, Rig &rig)
 {
     const char *planners[] = {"optimal", "gaussian", "box"};
     const char *models[] = {"hybrid", "rigid", "similarity"};
+    // Valid exclude strings only: a refused one is a g_warning (the library's parser has
+    // its own tests for bad strings).
+    const char *excludes[] = {"", "0,0,1,0.1", "0.4,0.4,0.2,0.2;0,0.9,1,0.1", "0,0,0.5,1"};
     const int v = b.next();
-    switch (b.range(0, 11)) {
+    switch (b.range(0, 14)) {
     case 0:
         rig.setProperty("delay", std::to_string(v % 10));
         break;
@@ -149,6 +152,15 @@ void setProperty(Bytes &b, Rig &rig)
         break;
     case 10:
         rig.setProperty("border", v & 1 ? "black" : "replicate");
+        break;
+    case 11:
+        rig.setProperty("exclude", excludes[v % 4]);
+        break;
+    case 12:
+        rig.setProperty("exclude-static", v & 1 ? "true" : "false");
+        break;
+    case 13:
+        rig.setProperty("debug-overlay", v & 1 ? "true" : "false");
         break;
     default:
         rig.setProperty("post-messages", v & 1 ? "true" : "false");
