@@ -280,9 +280,8 @@ void warpRowsScalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int
 // The 128-bit kernel is warpRowsAvx2 one 128-bit half at a time, written once with
 // OpenCV's universal intrinsics (already a dependency: no new package, and the same
 // source compiles to SSE2 on x86-64 and NEON on aarch64). They have no register byte
-// shuffle, the heart of the window trick, so that one operation is spelt per ISA here.
+// shuffle, the heart of the window trick, nor pmulhrsw: those two are spelt per ISA here.
 using cv::v_int16x8;
-using cv::v_int32x4;
 using cv::v_uint16x8;
 using cv::v_uint8x16;
 
@@ -298,11 +297,22 @@ UAVSTAB_TARGET_SIMD128 inline v_uint8x16 lookupBytes(const v_uint8x16 &table, co
 #endif
 }
 
+// (a * b + 2^14) >> 15 per 16-bit lane: pmulhrsw, and on NEON vqrdmulh ((2ab + 2^15) >> 16,
+// the same; it saturates only for a = b = -32768, and b = fy << 9 >= 0 here).
+UAVSTAB_TARGET_SIMD128 inline v_int16x8 mulRoundShift15(const v_int16x8 &a, const v_int16x8 &b)
+{
+#if defined(UAVSTAB_HAVE_X86)
+    return v_int16x8(_mm_mulhrs_epi16(a.val, b.val));
+#else
+    return v_int16x8(vqrdmulhq_s16(a.val, b.val));
+#endif
+}
+
 // Horizontal taps of two source rows, then the vertical blend (8 lanes, x64): as
-// interpolateRows. (d * (fy << 9) + 2^14) >> 15 == (d * fy + 32) >> 6 exactly, in 32 bits.
+// interpolateRows.
 UAVSTAB_TARGET_SIMD128 inline v_int16x8 interpolateRows128(const std::uint8_t *top, const std::uint8_t *bottom,
                                                             const v_uint8x16 &ctrl, const v_int16x8 &w_left,
-                                                            const v_int16x8 &w_right, const v_int16x8 &fy)
+                                                            const v_int16x8 &w_right, const v_int16x8 &fy_scaled)
 {
     const v_uint16x8 low_byte = cv::v_setall_u16(0xff);
     const v_uint16x8 tp = cv::v_reinterpret_as_u16(lookupBytes(cv::v_load(top), ctrl));
@@ -311,10 +321,7 @@ UAVSTAB_TARGET_SIMD128 inline v_int16x8 interpolateRows128(const std::uint8_t *t
                         cv::v_mul_wrap(cv::v_reinterpret_as_s16(tp >> 8), w_right);
     const v_int16x8 b = cv::v_mul_wrap(cv::v_reinterpret_as_s16(bp & low_byte), w_left) +
                         cv::v_mul_wrap(cv::v_reinterpret_as_s16(bp >> 8), w_right);
-    v_int32x4 lo, hi;
-    cv::v_mul_expand(b - t, fy, lo, hi);
-    const v_int32x4 half = cv::v_setall_s32(kOne / 2);
-    return t + cv::v_pack((lo + half) >> kFracBits, (hi + half) >> kFracBits);
+    return t + mulRoundShift15(b - t, fy_scaled);
 }
 
 UAVSTAB_TARGET_SIMD128 void warpRows128(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width,
@@ -350,15 +357,16 @@ UAVSTAB_TARGET_SIMD128 void warpRows128(const PlaneSpan &src, std::uint8_t *dst,
                     const int k = (p.frx + ox[0]) >> 10;
                     const v_int16x8 kx = rel_x >> 10;  // rel_x >= 0
                     const v_int16x8 fx = (rel_x >> (10 - kFracBits)) & frac_mask;
-                    const v_int16x8 fy = (rel_y >> (10 - kFracBits)) & frac_mask;
+                    const v_int16x8 fy_scaled = ((rel_y >> (10 - kFracBits)) & frac_mask) << 9;
                     const v_int16x8 left = cv::v_mul_wrap(kx - cv::v_setall_s16(std::int16_t(k)), chans) +
                                            cv::v_load(steps.channel + 8 * h);
                     const v_uint8x16 ctrl = cv::v_reinterpret_as_u8(left + ((left << 8) + next_tap));
                     const std::size_t byte = std::size_t(p.ix0 + k) * channels;
-                    v_int16x8 value = interpolateRows128(row + byte, row + stride + byte, ctrl, one - fx, fx, fy);
+                    v_int16x8 value = interpolateRows128(row + byte, row + stride + byte, ctrl, one - fx, fx, fy_scaled);
                     if (p.ky_max != p.ky_min) {
                         const v_int16x8 lower =
-                            interpolateRows128(row + stride + byte, row + 2 * stride + byte, ctrl, one - fx, fx, fy);
+                            interpolateRows128(row + stride + byte, row + 2 * stride + byte, ctrl, one - fx, fx,
+                                               fy_scaled);
                         value = cv::v_select((rel_y >> 10) == ky_step, lower, value);
                     }
                     result[h] = (value + round) >> kFracBits;  // value >= 0
