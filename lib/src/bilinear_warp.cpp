@@ -2,11 +2,28 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <string>
+
+#include <opencv2/core/hal/intrin.hpp>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
 #define UAVSTAB_HAVE_X86 1
+#endif
+
+// The 128-bit kernel: OpenCV's universal intrinsics (SSE2 on x86, NEON on ARM at compile
+// time) plus one byte shuffle (pshufb, needing SSSE3, which x86 checks at run time; tbl on
+// NEON). Little-endian only: it pairs two taps as the low and high byte of a 16-bit lane.
+#if CV_SIMD128 && (CV_SSE2 || CV_NEON) && defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+#define UAVSTAB_HAVE_SIMD128 1
+#ifdef UAVSTAB_HAVE_X86
+#define UAVSTAB_TARGET_SIMD128 __attribute__((target("ssse3")))
+#else
+#define UAVSTAB_TARGET_SIMD128
+#endif
 #endif
 
 namespace uavstab {
@@ -53,11 +70,10 @@ inline void samplePixel(const PlaneSpan &src, int channels, double sx, double sy
     }
 }
 
-#ifdef UAVSTAB_HAVE_X86
-
 // A chunk is 16 output pixels: 16 / C pixels per 256-bit vector of 16-bit lanes, so
 // C vectors. For lane l of vector v (pixel j = v * 16 / C + l / C, channel l % C): the
-// source offset of pixel j from the chunk's first pixel, in 1/1024 px.
+// source offset of pixel j from the chunk's first pixel, in 1/1024 px. Every kernel
+// (AVX2, 128-bit, scalar) takes these same offsets, so all compute the same positions.
 constexpr int kChunk = 16;
 
 struct LaneSteps {
@@ -68,6 +84,8 @@ struct LaneSteps {
     int vectors;       // C
     int half_pixels;   // pixels per 128-bit half: 8 / C
 };
+
+#ifdef UAVSTAB_HAVE_X86
 
 __attribute__((target("avx2"))) inline __m256i load2(const std::uint8_t *lo, const std::uint8_t *hi)
 {
@@ -181,6 +199,201 @@ bool cpuHasAvx2()
 
 #endif // UAVSTAB_HAVE_X86
 
+// Where the chunk of output pixels [x, x + 16) of row y reads, and whether a vector kernel
+// may take it: the same decisions, in the same double arithmetic, as warpRowsAvx2's loop
+// (the tests check that both kernels write the same bytes).
+struct ChunkPlan {
+    int ix0, iy0;        // source pixel of the chunk's first output pixel
+    int frx, fry;        // its fraction, 1/1024 px
+    int ky_min, ky_max;  // source rows crossed in the chunk, relative to iy0
+};
+
+inline bool planChunk(const PlaneSpan &src, int channels, const double m[6], const LaneSteps &steps, int x, int y,
+                      ChunkPlan &p)
+{
+    const double last_x = m[0] * (kChunk - 1), last_y = m[3] * (kChunk - 1);
+    const int row_bytes = src.width * channels;
+    const int last_window = steps.offset_x[steps.vectors - 1][steps.half_pixels * channels];
+    const double sx0 = m[0] * x + m[1] * y + m[2];
+    const double sy0 = m[3] * x + m[4] * y + m[5];
+    const double sx1 = sx0 + last_x, sy1 = sy0 + last_y;
+    if (!(std::min(sx0, sx1) >= 0.0 && std::max(sx0, sx1) < src.width - 1 && std::min(sy0, sy1) >= 0.0 &&
+          std::max(sy0, sy1) < src.height - 1))
+        return false;
+    p.ix0 = int(sx0);
+    p.iy0 = int(std::floor(sy0));
+    p.frx = int((sx0 - p.ix0) * 1024.0);
+    p.fry = int((sy0 - p.iy0) * 1024.0);
+    const int ky_last = (p.fry + steps.offset_y[steps.vectors - 1][15]) >> 10;
+    p.ky_min = std::min(0, ky_last);
+    p.ky_max = std::max(0, ky_last);
+    return !((p.ix0 + ((p.frx + last_window) >> 10)) * channels + 16 > row_bytes || p.ky_max - p.ky_min > 1 ||
+             p.iy0 + p.ky_max + 1 >= src.height || p.iy0 + p.ky_min < 0);
+}
+
+inline void samplePixels(const PlaneSpan &src, int channels, const double m[6], bool replicate,
+                         const std::uint8_t *border, std::uint8_t *out, int x, int y, int count)
+{
+    for (int j = 0; j < count; ++j)
+        samplePixel(src, channels, m[0] * (x + j) + m[1] * y + m[2], m[3] * (x + j) + m[4] * y + m[5], replicate,
+                    border, out + (x + j) * channels);
+}
+
+// The reference: what every vector kernel computes, one byte at a time. Lane (v, l) is
+// pixel v * 16 / C + l / C, channel l % C: taps at the integer part of its position, weights
+// the top 6 bits of the 1/1024 fraction, horizontal blend x64, vertical blend rounded as
+// pmulhrsw does ((d * fy * 2^9 + 2^14) >> 15), then (v + 32) >> 6.
+void warpRowsScalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                    int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4],
+                    const LaneSteps &steps)
+{
+    const std::size_t stride = std::size_t(src.stride);
+    for (int y = row_begin; y < row_end; ++y) {
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        int x = 0;
+        for (; x + kChunk <= dst_width; x += kChunk) {
+            ChunkPlan p;
+            if (!planChunk(src, channels, m, steps, x, y, p)) {
+                samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
+                continue;
+            }
+            for (int v = 0; v < steps.vectors; ++v)
+                for (int l = 0; l < 16; ++l) {
+                    const int rel_x = p.frx + steps.offset_x[v][l], rel_y = p.fry + steps.offset_y[v][l];
+                    const int kx = rel_x >> 10, ky = rel_y >> 10;
+                    const int fx = (rel_x >> (10 - kFracBits)) & (kOne - 1);
+                    const int fy = (rel_y >> (10 - kFracBits)) & (kOne - 1);
+                    const std::uint8_t *tap =
+                        src.data + std::size_t(p.iy0 + ky) * stride + (p.ix0 + kx) * channels + steps.channel[l];
+                    const int t = tap[0] * (kOne - fx) + tap[channels] * fx;
+                    const int b = tap[stride] * (kOne - fx) + tap[stride + channels] * fx;
+                    const int value = t + (((b - t) * (fy << 9) + (1 << 14)) >> 15);
+                    out[x * channels + v * 16 + l] = std::uint8_t(std::clamp((value + kOne / 2) >> kFracBits, 0, 255));
+                }
+        }
+        samplePixels(src, channels, m, replicate, border, out, x, y, dst_width - x);
+    }
+}
+
+#ifdef UAVSTAB_HAVE_SIMD128
+
+// The 128-bit kernel is warpRowsAvx2 one 128-bit half at a time, written once with
+// OpenCV's universal intrinsics. Why these rather than Google Highway: OpenCV is already a
+// dependency (no new package in the CI, debian/control or the arm64 sysroot), the same
+// source compiles to SSE2 on x86-64 and NEON on aarch64, and the AVX2 kernel, measured and
+// proven, stays as it is, so x86 with AVX2 runs exactly the code it ran before (dispatch:
+// AVX2 > 128-bit > scalar). The intrinsics have no register byte shuffle, the heart of the
+// window trick, nor pmulhrsw: those two are spelt per ISA here (and make the x86 version
+// need SSSE3, checked at run time).
+using cv::v_int16x8;
+using cv::v_uint16x8;
+using cv::v_uint8x16;
+
+UAVSTAB_TARGET_SIMD128 inline v_uint8x16 lookupBytes(const v_uint8x16 &table, const v_uint8x16 &index)
+{
+#if defined(UAVSTAB_HAVE_X86)
+    return v_uint8x16(_mm_shuffle_epi8(table.val, index.val));
+#elif defined(__aarch64__)
+    return v_uint8x16(vqtbl1q_u8(table.val, index.val));
+#else
+    const uint8x8x2_t t = {{vget_low_u8(table.val), vget_high_u8(table.val)}};
+    return v_uint8x16(vcombine_u8(vtbl2_u8(t, vget_low_u8(index.val)), vtbl2_u8(t, vget_high_u8(index.val))));
+#endif
+}
+
+// (a * b + 2^14) >> 15 per 16-bit lane: pmulhrsw, and on NEON vqrdmulh ((2ab + 2^15) >> 16,
+// the same; it saturates only for a = b = -32768, and b = fy << 9 >= 0 here).
+UAVSTAB_TARGET_SIMD128 inline v_int16x8 mulRoundShift15(const v_int16x8 &a, const v_int16x8 &b)
+{
+#if defined(UAVSTAB_HAVE_X86)
+    return v_int16x8(_mm_mulhrs_epi16(a.val, b.val));
+#else
+    return v_int16x8(vqrdmulhq_s16(a.val, b.val));
+#endif
+}
+
+// Horizontal taps of two source rows, then the vertical blend (8 lanes, x64): as
+// interpolateRows.
+UAVSTAB_TARGET_SIMD128 inline v_int16x8 interpolateRows128(const std::uint8_t *top, const std::uint8_t *bottom,
+                                                            const v_uint8x16 &ctrl, const v_int16x8 &w_left,
+                                                            const v_int16x8 &w_right, const v_int16x8 &fy_scaled)
+{
+    const v_uint16x8 low_byte = cv::v_setall_u16(0xff);
+    const v_uint16x8 tp = cv::v_reinterpret_as_u16(lookupBytes(cv::v_load(top), ctrl));
+    const v_uint16x8 bp = cv::v_reinterpret_as_u16(lookupBytes(cv::v_load(bottom), ctrl));
+    const v_int16x8 t = cv::v_mul_wrap(cv::v_reinterpret_as_s16(tp & low_byte), w_left) +
+                        cv::v_mul_wrap(cv::v_reinterpret_as_s16(tp >> 8), w_right);
+    const v_int16x8 b = cv::v_mul_wrap(cv::v_reinterpret_as_s16(bp & low_byte), w_left) +
+                        cv::v_mul_wrap(cv::v_reinterpret_as_s16(bp >> 8), w_right);
+    return t + mulRoundShift15(b - t, fy_scaled);
+}
+
+UAVSTAB_TARGET_SIMD128 void warpRows128(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width,
+                                        int row_begin, int row_end, int channels, const double m[6], bool replicate,
+                                        const std::uint8_t border[4], const LaneSteps &steps)
+{
+    const std::size_t stride = std::size_t(src.stride);
+    const v_int16x8 frac_mask = cv::v_setall_s16(kOne - 1);
+    const v_int16x8 one = cv::v_setall_s16(kOne);
+    const v_int16x8 round = cv::v_setall_s16(kOne / 2);
+    const v_int16x8 chans = cv::v_setall_s16(std::int16_t(channels));
+    const v_int16x8 next_tap = cv::v_setall_s16(std::int16_t(channels << 8));
+    for (int y = row_begin; y < row_end; ++y) {
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        int x = 0;
+        for (; x + kChunk <= dst_width; x += kChunk) {
+            ChunkPlan p;
+            if (!planChunk(src, channels, m, steps, x, y, p)) {
+                samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
+                continue;
+            }
+            const std::uint8_t *row = src.data + std::size_t(p.iy0 + p.ky_min) * stride;
+            const v_int16x8 frx_v = cv::v_setall_s16(std::int16_t(p.frx));
+            const v_int16x8 fry_v = cv::v_setall_s16(std::int16_t(p.fry));
+            const v_int16x8 ky_step = cv::v_setall_s16(std::int16_t(p.ky_max));
+            for (int v = 0; v < steps.vectors; ++v) {
+                v_int16x8 result[2];
+                for (int h = 0; h < 2; ++h) {
+                    const std::int16_t *ox = steps.offset_x[v] + 8 * h;
+                    const v_int16x8 rel_x = frx_v + cv::v_load(ox);
+                    const v_int16x8 rel_y = fry_v + cv::v_load(steps.offset_y[v] + 8 * h);
+                    // The half reads a window that starts at its first pixel's left tap.
+                    const int k = (p.frx + ox[0]) >> 10;
+                    const v_int16x8 kx = rel_x >> 10;  // rel_x >= 0
+                    const v_int16x8 fx = (rel_x >> (10 - kFracBits)) & frac_mask;
+                    const v_int16x8 fy_scaled = ((rel_y >> (10 - kFracBits)) & frac_mask) << 9;
+                    const v_int16x8 left = cv::v_mul_wrap(kx - cv::v_setall_s16(std::int16_t(k)), chans) +
+                                           cv::v_load(steps.channel + 8 * h);
+                    const v_uint8x16 ctrl = cv::v_reinterpret_as_u8(left + ((left << 8) + next_tap));
+                    const std::size_t byte = std::size_t(p.ix0 + k) * channels;
+                    v_int16x8 value = interpolateRows128(row + byte, row + stride + byte, ctrl, one - fx, fx, fy_scaled);
+                    if (p.ky_max != p.ky_min) {
+                        const v_int16x8 lower =
+                            interpolateRows128(row + stride + byte, row + 2 * stride + byte, ctrl, one - fx, fx,
+                                               fy_scaled);
+                        value = cv::v_select((rel_y >> 10) == ky_step, lower, value);
+                    }
+                    result[h] = (value + round) >> kFracBits;  // value >= 0
+                }
+                cv::v_store(out + x * channels + v * 16, cv::v_pack_u(result[0], result[1]));
+            }
+        }
+        samplePixels(src, channels, m, replicate, border, out, x, y, dst_width - x);
+    }
+}
+
+bool cpuHasSimd128()
+{
+#ifdef UAVSTAB_HAVE_X86
+    static const bool has = __builtin_cpu_supports("ssse3");
+    return has;
+#else
+    return true;
+#endif
+}
+
+#endif // UAVSTAB_HAVE_SIMD128
+
 template <bool Swap>
 inline std::uint16_t load16(const std::uint8_t *p)
 {
@@ -290,13 +503,82 @@ void warpPlaneBilinear16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride
         warpRows16<false>(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
 }
 
+bool warpKernelAvailable(WarpKernel kernel)
+{
+    switch (kernel) {
+    case WarpKernel::Scalar:
+        return true;
+    case WarpKernel::Simd128:
+#ifdef UAVSTAB_HAVE_SIMD128
+        return cpuHasSimd128();
+#else
+        return false;
+#endif
+    case WarpKernel::Avx2:
+#ifdef UAVSTAB_HAVE_X86
+        return cpuHasAvx2();
+#else
+        return false;
+#endif
+    }
+    return false;
+}
+
+const char *warpKernelName(WarpKernel kernel)
+{
+    switch (kernel) {
+    case WarpKernel::Scalar:
+        return "scalar";
+    case WarpKernel::Simd128:
+#ifdef UAVSTAB_HAVE_X86
+        return "sse128";
+#else
+        return "neon128";
+#endif
+    case WarpKernel::Avx2:
+        return "avx2";
+    }
+    return "?";
+}
+
+WarpKernel warpKernel()
+{
+    static const WarpKernel chosen = [] {
+        WarpKernel best = WarpKernel::Scalar;
+        for (WarpKernel k : {WarpKernel::Simd128, WarpKernel::Avx2})
+            if (warpKernelAvailable(k))
+                best = k;
+        const char *env = std::getenv("UAVSTAB_WARP_KERNEL");
+        if (env == nullptr || *env == '\0')
+            return best;
+        const std::string want = env;
+        for (WarpKernel k : {WarpKernel::Scalar, WarpKernel::Simd128, WarpKernel::Avx2})
+            if (want == warpKernelName(k) || (k == WarpKernel::Simd128 && want == "simd128")) {
+                if (warpKernelAvailable(k))
+                    return k;
+                break;
+            }
+        std::fprintf(stderr, "uavstab: UAVSTAB_WARP_KERNEL=%s is not available here (scalar, simd128, avx2): using %s\n",
+                     env, warpKernelName(best));
+        return best;
+    }();
+    return chosen;
+}
+
 bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                        int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4])
 {
-#ifdef UAVSTAB_HAVE_X86
+    return warpPlaneBilinear(src, dst, dst_stride, dst_width, row_begin, row_end, channels, m, replicate, border,
+                             warpKernel());
+}
+
+bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                       int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4],
+                       WarpKernel kernel)
+{
     // Four-channel pixels fill a vector with only 4 pixels; measured no faster than
     // OpenCV there, so only planar luma/chroma (1) and interleaved chroma (2) come here.
-    if (!cpuHasAvx2() || (channels != 1 && channels != 2))
+    if (!warpKernelAvailable(kernel) || (channels != 1 && channels != 2))
         return false;
     // The window trick needs the source to advance forwards by at most 1.25 px per output
     // pixel and to cross at most one source row per chunk.
@@ -315,13 +597,26 @@ bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, 
         steps.channel[l] = std::int16_t(l % channels);
         steps.is_high_half[l] = std::int16_t(l >= 8);
     }
-    warpRowsAvx2(src, dst, dst_stride, dst_width, row_begin, row_end, channels, m, replicate, border, steps);
-    return true;
+    switch (kernel) {
+    case WarpKernel::Avx2:
+#ifdef UAVSTAB_HAVE_X86
+        warpRowsAvx2(src, dst, dst_stride, dst_width, row_begin, row_end, channels, m, replicate, border, steps);
+        return true;
 #else
-    (void)src, (void)dst, (void)dst_stride, (void)dst_width, (void)row_begin, (void)row_end, (void)channels, (void)m,
-        (void)replicate, (void)border;
-    return false;
+        return false;
 #endif
+    case WarpKernel::Simd128:
+#ifdef UAVSTAB_HAVE_SIMD128
+        warpRows128(src, dst, dst_stride, dst_width, row_begin, row_end, channels, m, replicate, border, steps);
+        return true;
+#else
+        return false;
+#endif
+    case WarpKernel::Scalar:
+        warpRowsScalar(src, dst, dst_stride, dst_width, row_begin, row_end, channels, m, replicate, border, steps);
+        return true;
+    }
+    return false;
 }
 
 } // namespace uavstab

@@ -3,9 +3,15 @@
 //
 // OpenCV's warpAffine spends most of its time computing and gathering source
 // coordinates pixel by pixel. Here, along an output row the source advances by a nearly
-// constant step, so 16 output bytes read from one 16-byte window per source row: a byte
-// shuffle replaces the gather (AVX2). Positions are quantised to 1/64 pixel (OpenCV:
-// 1/32). Pixels whose taps leave the frame or the window take the scalar path.
+// constant step, so 8 or 16 output bytes read from one 16-byte window per source row: a
+// byte shuffle replaces the gather. Positions are quantised to 1/64 pixel (OpenCV: 1/32).
+// Pixels whose taps leave the frame or the window take the per-pixel path.
+//
+// Three kernels write the same bytes (the tests compare them): AVX2 (x86, chosen at run
+// time), a 128-bit one written once with OpenCV's universal intrinsics (NEON on ARM;
+// SSE2 + SSSE3 on x86 without AVX2) and a scalar reference that spells out their integer
+// arithmetic (used where neither exists). So a given input warps to the same output on
+// every machine.
 #pragma once
 
 #include <cstdint>
@@ -19,11 +25,26 @@ struct PlaneSpan {
     int height;
 };
 
+enum class WarpKernel { Scalar, Simd128, Avx2 };
+
+// "scalar", "sse128" / "neon128" (Simd128 on x86 / ARM), "avx2".
+const char *warpKernelName(WarpKernel kernel);
+// Whether this build and this CPU have the kernel.
+bool warpKernelAvailable(WarpKernel kernel);
+// The kernel warpPlaneBilinear uses: the fastest available (AVX2 > 128-bit > scalar), or
+// the one named by the environment variable UAVSTAB_WARP_KERNEL (scalar, simd128 or its
+// name above, avx2) when this CPU has it. Read once.
+WarpKernel warpKernel();
+
 // dst(x, y) = src(m * (x, y, 1)) for dst rows [row_begin, row_end), `channels` interleaved
-// bytes per pixel (1 or 2: luma and chroma planes). Returns false, having written nothing, when this CPU or this transform
+// bytes per pixel (1 or 2: luma and chroma planes). Returns false, having written nothing, when this transform
 // is not handled (the caller then uses a general warp).
 bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                        int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4]);
+// The same with a given kernel (tests); false also when the kernel is not available.
+bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                       int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4],
+                       WarpKernel kernel);
 
 // The same for one plane of 16-bit samples (one channel), at full depth: taps weighted in
 // double precision and the result rounded to the nearest integer, so that an integer
