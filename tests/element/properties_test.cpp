@@ -125,8 +125,10 @@ bool elementAcceptsText(GstElement *element, const ConfigParam &p, const std::st
     _gst_check_expecting_log = FALSE;
     _gst_check_raised_warning = FALSE;
     _gst_check_raised_critical = FALSE;
-    if (warned)
-        fail_unless_equals_string(elementText(element, p).c_str(), before.c_str());
+    if (warned) {
+        const std::string now = elementText(element, p);  // named: the macro keeps the pointer
+        fail_unless_equals_string(now.c_str(), before.c_str());
+    }
     return !warned;
 }
 
@@ -248,9 +250,13 @@ ELEMENT_TEST(every_config_field_is_a_property_with_its_range_and_default)
         }
         case ParamKind::String:
             fail_unless(G_IS_PARAM_SPEC_STRING(spec), "%s: not a string property", name);
-            fail_unless_equals_string(G_PARAM_SPEC_STRING(spec)->default_value, p.defaultText().c_str());
-            fail_unless_equals_string(elementText(element, p).c_str(), p.defaultText().c_str());
+        {
+            // Named: fail_unless_equals_string keeps the pointers past the full expression.
+            const std::string default_text = p.defaultText(), element_text = elementText(element, p);
+            fail_unless_equals_string(G_PARAM_SPEC_STRING(spec)->default_value, default_text.c_str());
+            fail_unless_equals_string(element_text.c_str(), default_text.c_str());
             break;
+        }
         }
     }
     // The element's own properties are not in the table.
@@ -327,7 +333,8 @@ ELEMENT_TEST(element_and_library_accept_and_refuse_the_same_strings)
             fail_unless(library == element_took, "%s = '%s': the library %s it, the element %s it", p.name, text,
                         library ? "accepts" : "refuses", element_took ? "accepts" : "refuses");
             if (library) {
-                fail_unless_equals_string(elementText(element, p).c_str(), p.getText(config).c_str());
+                const std::string element_text = elementText(element, p), library_text = p.getText(config);
+                fail_unless_equals_string(element_text.c_str(), library_text.c_str());
                 config.validate();  // what the element hands on is valid
             }
         }
