@@ -45,6 +45,7 @@ struct Rig::Entry {
         Warning,
         Note,           // text from outside (a GLib warning, say), for the report
         StateUp,        // the element is back to PAUSED or PLAYING after a stop
+        FlushStarting,  // we are about to push FLUSH_START (its In entry comes later)
     } kind = In;
     std::uint64_t id = 0;  // item id, 0 = not ours
     bool is_buffer = false;
@@ -770,6 +771,13 @@ bool Rig::flushStart()
 {
     GstEvent *start = gst_event_new_flush_start();
     const std::uint64_t start_id = newEventId(start);
+    // FLUSH_START sets our pad and the element's sink pad flushing before the probe logs
+    // it: a push of the streaming thread refused in between (an EOS accepted by the
+    // element but then not stored on its flushing pad) must find its reason in the log.
+    Entry starting;
+    starting.kind = Entry::FlushStarting;
+    starting.id = start_id;
+    append(starting);
     const bool started = gst_pad_push_event(src_, start);
     noteResult(start_id, started ? GST_FLOW_OK : GST_FLOW_ERROR);
     std::lock_guard<std::mutex> lock(mutex_);
@@ -1177,7 +1185,8 @@ std::string Rig::describe(const Entry &e) const
 {
     std::ostringstream out;
     static const char *kinds[] = {"in",     "out",        "returned", "stopping", "stopped", "drain?",
-                                  "drain!", "new-stream", "ERROR",    "warning",  "note",    "started"};
+                                  "drain!", "new-stream", "ERROR",    "warning",  "note",    "started",
+                                  "flush-starting"};
     out << kinds[e.kind] << " ";
     if (e.kind == Entry::In || e.kind == Entry::Out || e.kind == Entry::Returned) {
         if (e.is_buffer)
@@ -1317,6 +1326,9 @@ std::string Rig::check() const
             }
             break;
         }
+        case Entry::FlushStarting:
+            epochs.back().flushing = true;
+            break;
         case Entry::StateChanging:
             epochs.back().stopping = true;
             down = true;
