@@ -127,6 +127,23 @@ double extrapolate(const std::vector<double> &values, std::size_t count, int ahe
     return intercept + slope * ahead;
 }
 
+// The shake's level in a camera path (oldest first): the RMS of its second differences
+// over the newest `count` values. A manoeuvre's second differences (accelerations) are a
+// small fraction of a pixel per frame squared; shake's are of the order of its amplitude.
+double shakeLevel(const std::vector<double> &values, std::size_t count)
+{
+    const std::size_t n = values.size();
+    double sum = 0.0;
+    std::size_t terms = 0;
+    for (std::size_t k = 0; k < count && k + 2 < n; ++k) {
+        const std::size_t i = n - 1 - k;
+        const double d2 = values[i] - 2 * values[i - 1] + values[i - 2];
+        sum += d2 * d2;
+        ++terms;
+    }
+    return terms ? std::sqrt(sum / double(terms)) : 0.0;
+}
+
 } // namespace
 
 OptimalPathPlanner::OptimalPathPlanner(const Settings &settings) : settings_(settings) {}
@@ -167,6 +184,7 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
     if (request.segment_start) {
         past_reference_.clear();
         past_camera_.clear();
+        past_gap_.clear();
         past_change_ = {0.0, 0.0, 0.0, 0.0};
         past_zoom_ = 0.0;
     }
@@ -196,6 +214,24 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
         const double threshold = settings_.jerk_threshold * (a == kX || a == kY ? diagonal : 2.0);
         reference[a] =
             smoothAxis(camera[a], history[a], settings_.smoothness, threshold, settings_.reweighting_rounds);
+        if (settings_.manoeuvre_threshold > 0.0) {
+            // The mean gap between camera and path over the last frames: the known
+            // look-ahead's, then the committed ones before it.
+            const std::size_t window = std::size_t(std::max(1, settings_.manoeuvre_window));
+            double gap = 0.0;
+            std::size_t terms = 0;
+            for (std::size_t j = std::min(known, window); j-- > 0 && terms < window; ++terms)
+                gap += camera[a][j] - reference[a][j];
+            for (auto it = past_gap_.rbegin(); it != past_gap_.rend() && terms < window; ++it, ++terms)
+                gap += (*it)[a];
+            gap = std::abs(gap) / double(terms);
+            const double level = settings_.manoeuvre_threshold * shakeLevel(series, 30);
+            if (terms == window && gap > level) {
+                const double share = std::max(settings_.min_smoothness_share, (level / gap) * (level / gap));
+                reference[a] = smoothAxis(camera[a], history[a], settings_.smoothness * share, threshold,
+                                          settings_.reweighting_rounds);
+            }
+        }
     }
 
     const double zoom = planZoom(request, camera, reference, origin);
@@ -298,6 +334,12 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
     const double dx = delta_position[0][0], dy = delta_position[1][0];
     past_change_ = {ca * dx - sa * dy, sa * dx + ca * dy, delta_angle[0], delta_scale[0]};
     past_zoom_ = zoom;
+    Params gap;
+    for (int a = 0; a < 4; ++a)
+        gap[a] = -reference[a][0];  // camera[a][0] is 0: values are relative to it
+    past_gap_.push_back(gap);
+    while (past_gap_.size() > std::size_t(std::max(1, settings_.manoeuvre_window)))
+        past_gap_.pop_front();
     past_camera_.push_back(origin);
     while (past_camera_.size() > std::size_t(settings_.prediction_frames))
         past_camera_.pop_front();

@@ -24,6 +24,7 @@ std::unique_ptr<PathPlanner> makePathPlanner(const StabilizerConfig &config)
     settings.max_zoom = config.max_zoom;
     settings.zoom_speed = config.zoom_speed;
     settings.smoothness = config.planner_smoothness;
+    settings.manoeuvre_threshold = config.planner_manoeuvre;
     return std::make_unique<OptimalPathPlanner>(settings);
 }
 

@@ -47,6 +47,7 @@ bool samePlanner(const StabilizerConfig &a, const StabilizerConfig &b)
 {
     return a.planner == b.planner && a.smoothing_radius == b.smoothing_radius && a.crop == b.crop &&
            a.limit_to_crop == b.limit_to_crop && a.planner_smoothness == b.planner_smoothness &&
+           a.planner_manoeuvre == b.planner_manoeuvre &&
            a.adaptive_zoom == b.adaptive_zoom && a.max_zoom == b.max_zoom && a.zoom_speed == b.zoom_speed;
 }
 } // namespace

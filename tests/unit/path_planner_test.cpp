@@ -214,6 +214,43 @@ TEST(PathPlanner, AShakyHoverComesOutNearlyStill)
     }
 }
 
+// A pan that sets off from a hover, holds and stops, under shake: at short delays the
+// path must not trail the manoeuvre (the manoeuvre threshold lets it catch up), and the
+// hover parts must stay as still as without it.
+TEST(PathPlanner, AManoeuvreIsCaughtUpWithAtShortDelays)
+{
+    std::vector<Similarity> path, intended;
+    double x = 0, v = 0;
+    const double a = 3.5 / 30;
+    for (int i = 0; i < 240; ++i) {
+        v += (i >= 40 && i < 70) ? a : (i >= 130 && i < 160) ? -a : 0.0;
+        x += v;
+        intended.push_back({x, 0, 0, 1});
+        const double t = i / 30.0;
+        path.push_back({x + 3.0 * std::sin(2 * 3.14159 * 3.0 * t) + 1.5 * std::sin(2 * 3.14159 * 6.1 * t + 1),
+                        2.5 * std::sin(2 * 3.14159 * 5.3 * t + 1), 0, 1});
+    }
+    auto error = [&](double threshold, int delay, std::size_t from, std::size_t to) {
+        StabilizerConfig config;
+        config.planner_manoeuvre = threshold;
+        auto planner = makePathPlanner(config);
+        const auto planned = planPath(*planner, path, delay);
+        double sum = 0;
+        for (std::size_t i = from; i < to; ++i)
+            sum += std::pow(planned[i].smoothed.dx - intended[i].dx, 2) + std::pow(planned[i].smoothed.dy, 2);
+        return std::sqrt(sum / double(to - from));
+    };
+    for (int delay : {0, 5}) {
+        const double on = error(0.7, delay, 40, 200), off = error(0.0, delay, 40, 200);
+        const double hover_on = error(0.7, delay, 200, 240), hover_off = error(0.0, delay, 200, 240);
+        std::printf("delay %d: error against the intended pan %.2f px (%.2f px without catching up); still "
+                    "afterwards %.2f px (%.2f)\n",
+                    delay, on, off, hover_on, hover_off);
+        EXPECT_LT(on, 0.8 * off) << "delay " << delay;
+        EXPECT_LT(hover_on, 1.1 * hover_off + 0.05) << "delay " << delay;
+    }
+}
+
 TEST(PathPlanner, DelayZeroUsesNoFutureFrame)
 {
     // Two paths that agree up to frame 60 and then part: at delay 0 every frame up to 60

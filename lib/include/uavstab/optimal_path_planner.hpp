@@ -67,6 +67,14 @@ public:
         // Pull of the extrapolation's slope towards zero at a segment's start (squared
         // frames), fading out over its first prediction_frames frames.
         double young_slope_prior = 30.0;
+        // Manoeuvres: when the camera has kept to one side of stage 1's path for the last
+        // manoeuvre_window frames (their mean gap above manoeuvre_threshold times the
+        // shake's level), the path is lagging a deliberate move, not riding out shake:
+        // stage 1 is solved again with its smoothness scaled down by (threshold * shake /
+        // gap)^2, at least min_smoothness_share. 0 turns it off.
+        double manoeuvre_threshold = 0.7;
+        int manoeuvre_window = 8;
+        double min_smoothness_share = 0.01;
     };
     static constexpr int kHistory = 3;  // frames the differences run on from
 
@@ -81,6 +89,7 @@ private:
     Settings settings_;
     std::deque<Params> past_reference_;  // stage 1's committed values, newest last
     std::deque<Params> past_camera_;     // newest last
+    std::deque<Params> past_gap_;        // camera minus committed stage 1 value, newest last
     Params past_change_{};               // stage 2's committed change
     double past_zoom_ = 0.0;             // 0: none yet in this segment
 };
