@@ -56,6 +56,9 @@ struct FeatureTracker::Impl {
     LkGeometry lk{};
 
     void detect(const std::vector<cv::Mat> &pyramid);
+    // Tracks `tracks` from the previous pyramid into the current one (re-detecting first
+    // when due or when `redetect`), forward-backward checked and outside excluded regions.
+    PointMatches match(bool redetect);
     // config.exclude in pixels of an image of `size` (the analysis image or a pyramid
     // level), each grown by `margin` pixels and clipped to the image.
     std::vector<cv::Rect> excluded(cv::Size size, int margin) const;
@@ -173,6 +176,64 @@ Point2 FeatureTracker::Impl::toFrame(cv::Point2f p) const
     return {(p.x + 0.5) * sx - 0.5 - (frame_width - 1) * 0.5, (p.y + 0.5) * sy - 0.5 - (frame_height - 1) * 0.5};
 }
 
+PointMatches FeatureTracker::Impl::match(bool redetect)
+{
+    PointMatches matches;
+    const std::size_t min_live = std::size_t(std::max(config.min_points, config.max_corners / 2));
+    if (redetect || track_age >= config.redetect_interval || tracks.size() < min_live) {
+        detect(previous_pyramid);
+        matches.redetected = true;
+    }
+    matches.detected = int(tracks.size());
+    if (!tracks.empty()) {
+        const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
+        cv::calcOpticalFlowPyrLK(previous_pyramid, current_pyramid, tracks, forward,
+                                 status_forward, errors_forward, lk.window, lk.levels, criteria);
+        // Only tracks that passed the forward checks go back: the rest are dropped anyway.
+        const cv::Rect2f inside(0.f, 0.f, float(analysis.width - 1), float(analysis.height - 1));
+        kept.clear();
+        kept_forward.clear();
+        for (std::size_t i = 0; i < tracks.size(); ++i) {
+            if (status_forward[i] && !(errors_forward[i] > kMaxPatchError) && inside.contains(forward[i])) {
+                kept.push_back(i);
+                kept_forward.push_back(forward[i]);
+            }
+        }
+        std::vector<cv::Point2f> survivors;
+        survivors.reserve(kept.size());
+        if (!kept.empty()) {
+            // No patch error for the way back: only the forward one is checked, and
+            // OpenCV skips a window resampling per point when it is not asked for.
+            cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid, kept_forward, backward,
+                                     status_backward, cv::noArray(), lk.window, lk.levels, criteria);
+        }
+        const float limit2 = float(config.fb_threshold * config.fb_threshold);
+        // Tracks that come near an excluded region (a screen-fixed overlay) are dropped:
+        // their window would see the overlay, which does not move with the scene.
+        const std::vector<cv::Rect> excluded_rects = excluded(analysis, excludeMargin());
+        auto isExcluded = [&](cv::Point2f p) {
+            return std::any_of(excluded_rects.begin(), excluded_rects.end(), [&](const cv::Rect &r) {
+                return p.x >= float(r.x) && p.y >= float(r.y) && p.x < float(r.x + r.width) &&
+                       p.y < float(r.y + r.height);
+            });
+        };
+        for (std::size_t k = 0; k < kept.size(); ++k) {
+            const std::size_t i = kept[k];
+            const cv::Point2f e = backward[k] - tracks[i];
+            if (!status_backward[k] || e.dot(e) > limit2)
+                continue;
+            if (!excluded_rects.empty() && (isExcluded(forward[i]) || isExcluded(tracks[i])))
+                continue;
+            matches.previous.push_back(toFrame(tracks[i]));
+            matches.current.push_back(toFrame(forward[i]));
+            survivors.push_back(forward[i]);
+        }
+        tracks.swap(survivors);
+        ++track_age;
+    }
+    return matches;
+}
+
 PointMatches FeatureTracker::track(const FrameView &frame)
 {
     Impl &d = *impl_;
@@ -195,61 +256,23 @@ PointMatches FeatureTracker::track(const FrameView &frame)
 
     PointMatches matches;
     matches.first = !d.has_previous;
-    if (d.has_previous) {
-        const std::size_t min_live = std::size_t(std::max(d.config.min_points, d.config.max_corners / 2));
-        if (d.track_age >= d.config.redetect_interval || d.tracks.size() < min_live) {
-            d.detect(d.previous_pyramid);
-            matches.redetected = true;
-        }
-        matches.detected = int(d.tracks.size());
-        if (!d.tracks.empty()) {
-            const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
-            cv::calcOpticalFlowPyrLK(d.previous_pyramid, d.current_pyramid, d.tracks, d.forward,
-                                     d.status_forward, d.errors_forward, d.lk.window, d.lk.levels, criteria);
-            // Only tracks that passed the forward checks go back: the rest are dropped anyway.
-            const cv::Rect2f inside(0.f, 0.f, float(d.analysis.width - 1), float(d.analysis.height - 1));
-            d.kept.clear();
-            d.kept_forward.clear();
-            for (std::size_t i = 0; i < d.tracks.size(); ++i) {
-                if (d.status_forward[i] && !(d.errors_forward[i] > kMaxPatchError) && inside.contains(d.forward[i])) {
-                    d.kept.push_back(i);
-                    d.kept_forward.push_back(d.forward[i]);
-                }
-            }
-            std::vector<cv::Point2f> survivors;
-            survivors.reserve(d.kept.size());
-            if (!d.kept.empty()) {
-                // No patch error for the way back: only the forward one is checked, and
-                // OpenCV skips a window resampling per point when it is not asked for.
-                cv::calcOpticalFlowPyrLK(d.current_pyramid, d.previous_pyramid, d.kept_forward, d.backward,
-                                         d.status_backward, cv::noArray(), d.lk.window, d.lk.levels, criteria);
-            }
-            const float limit2 = float(d.config.fb_threshold * d.config.fb_threshold);
-            // Tracks that come near an excluded region (a screen-fixed overlay) are dropped:
-            // their window would see the overlay, which does not move with the scene.
-            const std::vector<cv::Rect> excluded = d.excluded(d.analysis, d.excludeMargin());
-            auto isExcluded = [&](cv::Point2f p) {
-                return std::any_of(excluded.begin(), excluded.end(), [&](const cv::Rect &r) {
-                    return p.x >= float(r.x) && p.y >= float(r.y) && p.x < float(r.x + r.width) &&
-                           p.y < float(r.y + r.height);
-                });
-            };
-            for (std::size_t k = 0; k < d.kept.size(); ++k) {
-                const std::size_t i = d.kept[k];
-                const cv::Point2f e = d.backward[k] - d.tracks[i];
-                if (!d.status_backward[k] || e.dot(e) > limit2)
-                    continue;
-                if (!excluded.empty() && (isExcluded(d.forward[i]) || isExcluded(d.tracks[i])))
-                    continue;
-                matches.previous.push_back(d.toFrame(d.tracks[i]));
-                matches.current.push_back(d.toFrame(d.forward[i]));
-                survivors.push_back(d.forward[i]);
-            }
-            d.tracks.swap(survivors);
-            ++d.track_age;
-        }
-    }
+    if (d.has_previous)
+        matches = d.match(false);
     d.has_previous = true;
+    std::swap(d.previous_pyramid, d.current_pyramid);
+    return matches;
+}
+
+PointMatches FeatureTracker::retrack()
+{
+    Impl &d = *impl_;
+    PointMatches matches;
+    if (!d.has_previous || d.previous_pyramid.empty() || d.current_pyramid.empty())
+        return matches;
+    // track() swapped the pyramids: put the last frame's back as the current one.
+    std::swap(d.previous_pyramid, d.current_pyramid);
+    --d.track_age;
+    matches = d.match(true);
     std::swap(d.previous_pyramid, d.current_pyramid);
     return matches;
 }

@@ -60,6 +60,16 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
         if (result.screen_fixed)
             tracker_.dropTracks(dropped);
         tracker_.setAutoExclude(screen_fixed_->regions());  // evidence decays: every frame
+        if (result.screen_fixed && int(matches.current.size()) < config_.min_points) {
+            // Most corners sat on an overlay (its edges outshine a hazy scene): detect
+            // afresh around it (where it was seen in this frame too) and match this frame
+            // again, rather than skip it.
+            tracker_.setAutoExclude(screen_fixed_->suspectRegions());
+            PointMatches again = tracker_.retrack();
+            tracker_.setAutoExclude(screen_fixed_->regions());
+            if (again.current.size() > matches.current.size())
+                matches = std::move(again);
+        }
     }
     result.points = int(matches.current.size());
     result.tracks.reserve(matches.current.size());

@@ -111,15 +111,25 @@ int ScreenFixedMap::filter(PointMatches &m, int width, int height, double scale,
 
 std::vector<RectF> ScreenFixedMap::regions() const
 {
+    return regionsFrom(kMaskedAt);
+}
+
+std::vector<RectF> ScreenFixedMap::suspectRegions() const
+{
+    return regionsFrom(kMaskedAt - 1.f);
+}
+
+std::vector<RectF> ScreenFixedMap::regionsFrom(float at) const
+{
     std::vector<RectF> rects;
     for (int y = 0; y < kRows; ++y)
         for (int x = 0; x < kCols;) {
-            if (score_[std::size_t(y * kCols + x)] < kMaskedAt) {
+            if (score_[std::size_t(y * kCols + x)] < at) {
                 ++x;
                 continue;
             }
             int end = x + 1;
-            while (end < kCols && score_[std::size_t(y * kCols + end)] >= kMaskedAt)
+            while (end < kCols && score_[std::size_t(y * kCols + end)] >= at)
                 ++end;
             rects.push_back({double(x) / kCols, double(y) / kRows, double(end - x) / kCols, 1.0 / kRows});
             x = end;

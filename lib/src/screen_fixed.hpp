@@ -7,7 +7,10 @@
 // but that moved less than a fifth of that are screen-fixed: they are dropped from this
 // frame's fit and from the tracker, and their place gains evidence on a 32x18 grid; a cell
 // seen twice is handed to the tracker as an excluded region (no corners detected there,
-// tracks near it dropped) until ~400 frames after its last sighting.
+// tracks near it dropped) until ~400 frames after its last sighting. When so many tracks
+// were dropped that too few are left for the frame, the estimator has the tracker detect
+// afresh around the cells seen in this frame (and those excluded), match the frame again
+// (FeatureTracker::retrack), so that learning costs no skipped frame.
 //
 // A scene point near the centre of a rotation or zoom does not move either, but there the
 // fitted motion is small too: it is never taken for an overlay. When the camera holds
@@ -37,9 +40,13 @@ public:
                std::vector<std::uint8_t> &dropped);
     // The cells taken for overlays, merged into rectangles along rows (fractions of the frame).
     std::vector<RectF> regions() const;
+    // ... and also the cells seen in the latest filter() call (not excluded yet).
+    std::vector<RectF> suspectRegions() const;
     void clear();
 
 private:
+    std::vector<RectF> regionsFrom(float score) const;
+
     std::array<float, kCols * kRows> score_{};
     int width_ = 0, height_ = 0;
 };

