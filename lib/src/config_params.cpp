@@ -47,9 +47,10 @@ std::vector<ConfigParam> makeTable()
                                       "path; larger is smoother and bends deliberate motion more",
                                       1.0, 1e7),
         param<&C::planner_manoeuvre>("planner_manoeuvre", "Planner manoeuvre threshold",
-                                     "Optimal planner: the path gives up smoothness to catch up with a deliberate "
-                                     "move when the camera has kept to one side of it for 8 frames by more than this "
-                                     "many times the shake's level (0 = never; lower catches up sooner)",
+                                     "Optimal planner, at delays up to 7: the path gives up smoothness to catch up "
+                                     "with a deliberate move when the camera has kept to one side of it for 8 frames "
+                                     "by more than this many times the shake's level (0 = never; lower catches up "
+                                     "sooner)",
                                      0.0, 100.0),
         param<&C::max_corners>("max_corners", "Max corners", "Corners tracked per frame", 4, 200),
         param<&C::roi>("roi", "Region of interest", "Central share of width and height where corners are detected",

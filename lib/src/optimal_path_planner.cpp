@@ -214,7 +214,7 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
         const double threshold = settings_.jerk_threshold * (a == kX || a == kY ? diagonal : 2.0);
         reference[a] =
             smoothAxis(camera[a], history[a], settings_.smoothness, threshold, settings_.reweighting_rounds);
-        if (settings_.manoeuvre_threshold > 0.0) {
+        if (settings_.manoeuvre_threshold > 0.0 && int(known) <= settings_.manoeuvre_max_lookahead) {
             // The mean gap between camera and path over the last frames: the known
             // look-ahead's, then the committed ones before it.
             const std::size_t window = std::size_t(std::max(1, settings_.manoeuvre_window));

@@ -53,9 +53,9 @@ struct StabilizerConfig {
     // Optimal planner: weight of the jerk penalty against following the camera path;
     // larger is smoother and bends deliberate motion more.
     double planner_smoothness = 100000.0;
-    // Optimal planner: the path gives up smoothness to catch up with a deliberate move
-    // when the camera has kept to one side of it for 8 frames by more than this many
-    // times the shake's level (0 = never; lower catches up sooner).
+    // Optimal planner, at delays up to 7: the path gives up smoothness to catch up with a
+    // deliberate move when the camera has kept to one side of it for 8 frames by more
+    // than this many times the shake's level (0 = never; lower catches up sooner).
     double planner_manoeuvre = 0.7;
 
     // Shi-Tomasi corners tracked per frame (paper: 50; at most 200).
