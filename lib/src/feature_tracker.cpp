@@ -271,7 +271,6 @@ PointMatches FeatureTracker::retrack()
         return matches;
     // track() swapped the pyramids: put the last frame's back as the current one.
     std::swap(d.previous_pyramid, d.current_pyramid);
-    --d.track_age;
     matches = d.match(true);
     std::swap(d.previous_pyramid, d.current_pyramid);
     return matches;
