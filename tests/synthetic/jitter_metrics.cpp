@@ -11,10 +11,10 @@ Similarity outputToInput(const FrameStats &stats)
     return stats.correction.inverse() * Similarity{0.0, 0.0, 0.0, 1.0 / stats.zoom};
 }
 
-double residualJitter(const std::vector<Similarity> &path, int width, int height, double sigma)
+double residualJitter(const std::vector<Similarity> &path, int width, int height, double sigma, std::size_t first)
 {
     const std::size_t n = path.size();
-    if (n < 2)
+    if (n < 2 || first >= n)
         return 0.0;
     const double hx = (width - 1) * 0.5, hy = (height - 1) * 0.5;
     const std::array<Point2, 4> corners{{{-hx, -hy}, {hx, -hy}, {-hx, hy}, {hx, hy}}};
@@ -24,7 +24,7 @@ double residualJitter(const std::vector<Similarity> &path, int width, int height
         std::vector<Point2> track(n);
         for (std::size_t i = 0; i < n; ++i)
             track[i] = path[i].apply(corner);
-        for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t i = first; i < n; ++i) {
             // Gaussian-weighted local line: the Gaussian low-pass wherever the window is
             // whole, and no bias on a pan where the clip's ends cut it short.
             double s0 = 0, s1 = 0, s2 = 0, x0 = 0, x1 = 0, y0 = 0, y1 = 0;
@@ -50,7 +50,7 @@ double residualJitter(const std::vector<Similarity> &path, int width, int height
             sum2 += ex * ex + ey * ey;
         }
     }
-    return std::sqrt(sum2 / (4.0 * n));
+    return std::sqrt(sum2 / (4.0 * double(n - first)));
 }
 
 double intendedPathError(const std::vector<Similarity> &output_path, const std::vector<Similarity> &intended_path,

@@ -17,7 +17,10 @@ Similarity outputToInput(const FrameStats &stats);
 // (sigma in frames; near the clip's ends, where the window is cut short, a
 // Gaussian-weighted local line, so that a pan is not mistaken for shake).
 // For the input: the true poses; for the output: true pose * output_to_input.
-double residualJitter(const std::vector<Similarity> &world_from_frame, int width, int height, double sigma = 8.0);
+// Frames before `first` are left out of the RMS (the low-pass still sees them): with
+// first = 30 it measures the steady state, without the first second's start-up.
+double residualJitter(const std::vector<Similarity> &world_from_frame, int width, int height, double sigma = 8.0,
+                      std::size_t first = 0);
 
 // Error against the intended (shake-free) path, in px: how far the output strays from the
 // path the pilot meant to fly, up to a constant. output_path[i] maps output-frame centred
