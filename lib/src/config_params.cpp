@@ -37,8 +37,9 @@ std::vector<ConfigParam> makeTable()
                          0, 1000),
         param<&C::planner>("planner", "Planner",
                            "How the output path is planned: optimal (the path over the whole look-ahead, keeping "
-                           "the crop window inside every frame), gaussian (the first wave's Gaussian window, each "
-                           "frame then clamped to the crop) or box (the paper's moving average, clamped likewise)",
+                           "the crop window inside every frame; made for UAV manoeuvres), gaussian (the first "
+                           "wave's Gaussian window, each frame then clamped to the crop; smoother on handheld sway) "
+                           "or box (the paper's moving average, clamped likewise)",
                            PlannerKind::Optimal, PlannerKind::Box),
         param<&C::smoothing_radius>("smoothing_radius", "Smoothing radius",
                                     "Window planners (gaussian, box): half-width of the window, in frames", 0, 1000),
