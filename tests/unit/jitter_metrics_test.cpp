@@ -1,4 +1,4 @@
-// Quality measures of tests/synthetic: the error against the intended path.
+// Quality measures of tests/synthetic: the error against the intended path, residual jitter.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -71,4 +71,26 @@ TEST(IntendedPathError, LaggingAStopCostsButFollowingTheManoeuvreDoesNot)
     }
     EXPECT_NEAR(intendedPathError(intended, intended, 640, 360), 0.0, 1e-9);
     EXPECT_GT(intendedPathError(lagging, intended, 640, 360), 5.0);
+}
+
+// Leaving out the first frames measures the steady state: a kink in the first frames
+// counts over the whole path and not at all once they are left out (the low-pass of the
+// frames kept, 3 sigma wide, does not reach it), while the shake everywhere still counts.
+TEST(ResidualJitter, LeavingOutTheFirstFramesDropsTheStartUpOnly)
+{
+    const int n = 150, first = 30;
+    std::vector<Similarity> steady, kinked;
+    for (int i = 0; i < n; ++i) {
+        const double shake = 2.0 * std::sin(2.0 * kPi * i / 6.0);
+        const double kink = i < 6 ? 12.0 * std::sin(kPi * i / 6.0) : 0.0;
+        steady.push_back({2.0 * i + shake, 0.5 * shake, 0.0, 1.0});
+        kinked.push_back({2.0 * i + shake + kink, 0.5 * shake, 0.0, 1.0});
+    }
+    const double steady_all = residualJitter(steady, 640, 360);
+    const double kinked_all = residualJitter(kinked, 640, 360);
+    EXPECT_GT(kinked_all, 1.2 * steady_all);
+    EXPECT_NEAR(residualJitter(kinked, 640, 360, 8.0, first), residualJitter(steady, 640, 360, 8.0, first), 1e-9);
+    EXPECT_GT(residualJitter(steady, 640, 360, 8.0, first), 0.5 * steady_all);
+    EXPECT_DOUBLE_EQ(residualJitter(kinked, 640, 360, 8.0, 0), kinked_all);
+    EXPECT_EQ(residualJitter(kinked, 640, 360, 8.0, std::size_t(n)), 0.0);
 }
