@@ -59,14 +59,15 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
             screen_fixed_->filter(matches, frame.width, frame.height, scale, frame_count_ + 1, dropped);
         if (result.screen_fixed)
             tracker_.dropTracks(dropped);
-        tracker_.setAutoExclude(screen_fixed_->regions());  // evidence decays: every frame
+        const std::vector<RectF> regions = screen_fixed_->regions();
+        tracker_.setAutoExclude(regions);  // evidence decays: every frame
         if (result.screen_fixed && int(matches.current.size()) < config_.min_points) {
             // Most corners sat on an overlay (its edges outshine a hazy scene): detect
             // afresh around it (where it was seen in this frame too) and match this frame
             // again, rather than skip it.
             tracker_.setAutoExclude(screen_fixed_->suspectRegions());
             PointMatches again = tracker_.retrack();
-            tracker_.setAutoExclude(screen_fixed_->regions());
+            tracker_.setAutoExclude(regions);
             if (again.current.size() > matches.current.size())
                 matches = std::move(again);
         }
