@@ -20,7 +20,9 @@ GType uavstabilize_planner_get_type()
 {
     static gsize type = 0;
     static const GEnumValue values[] = {
-        {int(uavstab::PlannerKind::Optimal), "The path over the whole look-ahead, crop window inside every frame",
+        {int(uavstab::PlannerKind::L1),
+         "Still wherever the crop margin allows, steady motion where the camera moves further (default)", "l1"},
+        {int(uavstab::PlannerKind::Optimal), "A smooth path that follows the camera's motion inside the crop",
          "optimal"},
         {int(uavstab::PlannerKind::Gaussian), "Gaussian window (sigma = radius / 2), each frame clamped to the crop",
          "gaussian"},

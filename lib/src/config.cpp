@@ -54,6 +54,8 @@ const char *toString(PlannerKind p)
         return "gaussian";
     case PlannerKind::Box:
         return "box";
+    case PlannerKind::L1:
+        return "l1";
     default:
         return "optimal";
     }

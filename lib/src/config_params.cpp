@@ -36,11 +36,12 @@ std::vector<ConfigParam> makeTable()
                          "of latency; 0 = causal smoothing)",
                          0, 1000),
         param<&C::planner>("planner", "Planner",
-                           "How the output path is planned: optimal (the path over the whole look-ahead, keeping "
-                           "the crop window inside every frame; made for UAV manoeuvres), gaussian (the first "
-                           "wave's Gaussian window, each frame then clamped to the crop; smoother on handheld sway) "
-                           "or box (the paper's moving average, clamped likewise)",
-                           PlannerKind::Optimal, PlannerKind::Box),
+                           "How the output path is planned: l1 (holds the view still wherever the crop margin "
+                           "allows and moves at steady speed only where the camera moves further; for hover, sway "
+                           "and manoeuvres alike), optimal (a smooth path that follows the camera's motion inside "
+                           "the crop), gaussian (a Gaussian window, each frame then clamped to the crop) or box "
+                           "(the paper's moving average, clamped likewise)",
+                           PlannerKind::Optimal, PlannerKind::L1),
         param<&C::smoothing_radius>("smoothing_radius", "Smoothing radius",
                                     "Window planners (gaussian, box): half-width of the window, in frames", 0, 1000),
         param<&C::planner_smoothness>("planner_smoothness", "Planner smoothness",

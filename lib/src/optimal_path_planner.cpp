@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "box_qp.hpp"
+#include "path_terms.hpp"
 #include "uavstab/framing.hpp"
 
 namespace uavstab {
@@ -14,135 +15,7 @@ namespace {
 // Rooms are shrunk by this much so that rounding never puts a corner a hair outside.
 constexpr double kRoomEpsilon = 1e-6;
 
-// A pose as the four parameters planned: x, y, angle, log scale.
-enum { kX, kY, kAngle, kLogScale };
-using Params = std::array<double, 4>;
-
-Params paramsOf(const Similarity &s)
-{
-    return {s.dx, s.dy, s.angle, std::log(s.scale)};
-}
-
-// Adds weight * sum of squared `order`-th differences of z = past ++ x to the problem in x.
-void addDifferences(BandedBoxQp &qp, const std::vector<double> &past, int order, double weight,
-                    const std::vector<double> *row_weights = nullptr)
-{
-    if (weight <= 0.0)
-        return;
-    static constexpr double kCoefficients[4][4] = {{1, 0, 0, 0}, {-1, 1, 0, 0}, {1, -2, 1, 0}, {-1, 3, -3, 1}};
-    const double *c = kCoefficients[order];
-    const std::size_t p = past.size(), n = qp.size(), span = std::size_t(order) + 1;
-    for (std::size_t r = 0; r + span <= p + n; ++r) {
-        if (r + span <= p)
-            continue;  // all in the past: a constant
-        double constant = 0.0;
-        for (std::size_t a = 0; a < span; ++a)
-            if (r + a < p)
-                constant += c[a] * past[r + a];
-        const double w = row_weights ? weight * (*row_weights)[r] : weight;
-        for (std::size_t a = 0; a < span; ++a) {
-            if (r + a < p)
-                continue;
-            // One band entry stands for both Q(i, j) and Q(j, i).
-            for (std::size_t b = a; b < span; ++b)
-                qp.addQ(r + a - p, r + b - p, w * c[a] * c[b]);
-            qp.addG(r + a - p, w * c[a] * constant);
-        }
-    }
-}
-
-// Stage 1: the fixed-lag smoother. Minimises sum_j (r_j - c_j)^2 + smoothness *
-// sum Huber(D3 r), the differences running on from the past references; the Huber
-// penalty by reweighted least squares (each round weights a jerk above the threshold by
-// threshold / |jerk|, the weight that makes its square cost what its absolute value would).
-std::vector<double> smoothAxis(const std::vector<double> &camera, const std::vector<double> &past, double smoothness,
-                               double jerk_threshold, int rounds)
-{
-    const std::size_t n = camera.size();
-    std::vector<double> x, weights, z;
-    for (int round = 0;; ++round) {
-        BandedBoxQp qp(n);
-        for (std::size_t j = 0; j < n; ++j) {
-            qp.addQ(j, j, 1.0);
-            qp.addG(j, -camera[j]);
-        }
-        addDifferences(qp, past, 3, smoothness, round > 0 ? &weights : nullptr);
-        x = qp.solve().x;
-        if (round == rounds)
-            return x;
-        z = past;
-        z.insert(z.end(), x.begin(), x.end());
-        weights.assign(z.size() > 3 ? z.size() - 3 : 0, 1.0);
-        for (std::size_t r = 0; r < weights.size(); ++r) {
-            const double jerk = std::abs(-z[r] + 3 * z[r + 1] - 3 * z[r + 2] + z[r + 3]);
-            if (jerk > jerk_threshold)
-                weights[r] = jerk_threshold / jerk;
-        }
-    }
-}
-
-// Stage 2: the smallest, smoothest change delta to the reference that keeps every frame's
-// crop window inside it: minimises sum delta_j^2 + stiffness * sum (delta_j - delta_j-1)^2
-// subject to lower_j <= reference_j + delta_j <= upper_j. Zero where nothing binds.
-std::vector<double> fitAxis(const std::vector<double> &reference, const std::vector<double> &lower,
-                            const std::vector<double> &upper, double past_change, double stiffness, bool constrained)
-{
-    const std::size_t n = lower.size();
-    if (!constrained)
-        return std::vector<double>(n, 0.0);
-    BandedBoxQp qp(n);
-    for (std::size_t j = 0; j < n; ++j) {
-        qp.addQ(j, j, 1.0);
-        qp.setBounds(j, lower[j] - reference[j], upper[j] - reference[j]);
-    }
-    addDifferences(qp, {past_change}, 1, stiffness);
-    return qp.solve().x;
-}
-
-// Line through the newest `count` values of `values` (oldest first), extrapolated
-// `ahead` steps past the newest. While fewer than `count` values are known (a young
-// segment) the slope is pulled towards zero, by a prior worth `prior` squared frames that
-// fades as values arrive: a slope fitted to a few shaken frames is mostly shake, and a
-// smooth path that set off along it would take a second to come back.
-double extrapolate(const std::vector<double> &values, std::size_t count, int ahead, double prior)
-{
-    const std::size_t n = values.size();
-    const double young = count > 0 ? std::max(0.0, 1.0 - double(n) / double(count)) : 0.0;
-    count = std::min(count, n);
-    if (count < 2)
-        return values.back();
-    double s0 = 0, s1 = 0, s2 = 0, v0 = 0, v1 = 0;
-    for (std::size_t k = 0; k < count; ++k) {
-        const double t = -double(k);  // 0 = newest
-        const double v = values[n - 1 - k];
-        s0 += 1;
-        s1 += t;
-        s2 += t * t;
-        v0 += v;
-        v1 += t * v;
-    }
-    const double det = s0 * (s2 + prior * young) - s1 * s1;
-    const double slope = (s0 * v1 - s1 * v0) / det;
-    const double intercept = (v0 - slope * s1) / s0;
-    return intercept + slope * ahead;
-}
-
-// The shake's level in a camera path (oldest first): the RMS of its second differences
-// over the newest `count` values. A manoeuvre's second differences (accelerations) are a
-// small fraction of a pixel per frame squared; shake's are of the order of its amplitude.
-double shakeLevel(const std::vector<double> &values, std::size_t count)
-{
-    const std::size_t n = values.size();
-    double sum = 0.0;
-    std::size_t terms = 0;
-    for (std::size_t k = 0; k < count && k + 2 < n; ++k) {
-        const std::size_t i = n - 1 - k;
-        const double d2 = values[i] - 2 * values[i - 1] + values[i - 2];
-        sum += d2 * d2;
-        ++terms;
-    }
-    return terms ? std::sqrt(sum / double(terms)) : 0.0;
-}
+using Params = PoseParams;
 
 } // namespace
 
@@ -215,22 +88,15 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
         reference[a] =
             smoothAxis(camera[a], history[a], settings_.smoothness, threshold, settings_.reweighting_rounds);
         if (settings_.manoeuvre_threshold > 0.0 && int(known) <= settings_.manoeuvre_max_lookahead) {
-            // The mean gap between camera and path over the last frames: the known
-            // look-ahead's, then the committed ones before it.
-            const std::size_t window = std::size_t(std::max(1, settings_.manoeuvre_window));
-            double gap = 0.0;
-            std::size_t terms = 0;
-            for (std::size_t j = std::min(known, window); j-- > 0 && terms < window; ++terms)
-                gap += camera[a][j] - reference[a][j];
-            for (auto it = past_gap_.rbegin(); it != past_gap_.rend() && terms < window; ++it, ++terms)
-                gap += (*it)[a];
-            gap = std::abs(gap) / double(terms);
-            const double level = settings_.manoeuvre_threshold * shakeLevel(series, 30);
-            if (terms == window && gap > level) {
-                const double share = std::max(settings_.min_smoothness_share, (level / gap) * (level / gap));
+            std::vector<double> gaps;
+            for (const Params &g : past_gap_)
+                gaps.push_back(g[a]);
+            const double share = catchUpShare(camera[a], reference[a], known, gaps,
+                                              std::size_t(std::max(1, settings_.manoeuvre_window)),
+                                              settings_.manoeuvre_threshold, series, settings_.min_smoothness_share);
+            if (share < 1.0)
                 reference[a] = smoothAxis(camera[a], history[a], settings_.smoothness * share, threshold,
                                           settings_.reweighting_rounds);
-            }
         }
     }
 
@@ -282,14 +148,8 @@ PlannedFrame OptimalPathPlanner::plan(const PlanRequest &request)
     for (std::size_t j = 0; j < fitted; ++j) {
         const double turn = camera[kAngle][j];
         const double output_turn = reference[kAngle][j] + delta_angle[j];
-        const Point2 r = windowOf(j).translationRoom(output_turn - turn, relative_scale[j]);
-        const double bx = std::max(0.0, r.x - kRoomEpsilon), by = std::max(0.0, r.y - kRoomEpsilon);
-        const double c = std::abs(std::cos(turn)), s = std::abs(std::sin(turn));
-        double shrink = 1.0;
-        if (bx > 0.0 && by > 0.0)
-            shrink = std::min({1.0, bx / (c * bx + s * by), by / (s * bx + c * by)});
-        const double camera_scale = std::exp(origin[kLogScale] + camera[kLogScale][j]);
-        room[j] = {shrink * bx * camera_scale, shrink * by * camera_scale};
+        room[j] = uprightTranslationRoom(windowOf(j), output_turn - turn, relative_scale[j], turn,
+                                         std::exp(origin[kLogScale] + camera[kLogScale][j]));
         centre[j] = toPlanning(camera[kX][j], camera[kY][j]);
     }
     // The previous frame's change, in today's planning axes.

@@ -1,5 +1,6 @@
 #include "uavstab/path_planner.hpp"
 
+#include "uavstab/l1_path_planner.hpp"
 #include "uavstab/optimal_path_planner.hpp"
 #include "uavstab/window_path_planner.hpp"
 
@@ -14,6 +15,13 @@ std::unique_ptr<PathPlanner> makePathPlanner(const StabilizerConfig &config)
     case PlannerKind::Box:
         return std::make_unique<WindowPathPlanner>(SmootherKind::Box, config.smoothing_radius, config.crop,
                                                    config.limit_to_crop);
+    case PlannerKind::L1: {
+        L1PathPlanner::Settings settings;
+        settings.crop = config.crop;
+        settings.keep_inside = config.limit_to_crop;
+        settings.catch_up_threshold = config.planner_manoeuvre;
+        return std::make_unique<L1PathPlanner>(settings);
+    }
     case PlannerKind::Optimal:
         break;
     }

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <dirent.h>
 #include <functional>
 #include <future>
@@ -204,24 +205,38 @@ StabilizerConfig plannerConfig(PlannerKind kind, int radius)
 const std::vector<OursEntry> &oursTable()
 {
     static const std::vector<OursEntry> table{
-        {"optimal", "optimal planner (default)", plannerConfig(PlannerKind::Optimal, 20)},
-        {"gauss20", "gaussian r20 (first wave's default)", plannerConfig(PlannerKind::Gaussian, 20)},
+        {"l1", "l1 planner (default)", plannerConfig(PlannerKind::L1, 20)},
+        {"optimal", "optimal planner", plannerConfig(PlannerKind::Optimal, 20)},
+        {"gauss20", "gaussian r20", plannerConfig(PlannerKind::Gaussian, 20)},
         {"box10", "box r10 (the paper's)", plannerConfig(PlannerKind::Box, 10)},
-        {"optimal_az", "optimal, adaptive zoom (crop 0.04, max 1.10)", [] {
-             // vid.stab's optzoom picks 1.035-1.047 on the real clips: the same base zoom,
-             // zooming in only where the look-ahead needs it.
-             StabilizerConfig c = plannerConfig(PlannerKind::Optimal, 20);
-             c.crop = 0.04;
-             c.adaptive_zoom = true;
-             c.max_zoom = 1.10;
-             return c;
-         }()},
     };
-    return table;
+    // UAVSTAB_BENCH_OURS=l1,gauss20 runs only those (for quick comparisons while tuning).
+    static const std::vector<OursEntry> chosen = [] {
+        const char *only = std::getenv("UAVSTAB_BENCH_OURS");
+        if (!only)
+            return table;
+        std::vector<OursEntry> t;
+        for (const OursEntry &e : table)
+            if (("," + std::string(only) + ",").find("," + e.name + ",") != std::string::npos)
+                t.push_back(e);
+        return t;
+    }();
+    return chosen;
 }
 
 // Look-ahead frames every entry of oursTable() runs at (0 = causal); 20 is the library's default.
-const std::vector<int> kDelays{0, 5, 10, 20};
+// UAVSTAB_BENCH_DELAYS=5,20 runs only those (for quick comparisons while tuning).
+const std::vector<int> kDelays = [] {
+    std::vector<int> d{0, 5, 10, 20};
+    if (const char *only = std::getenv("UAVSTAB_BENCH_DELAYS")) {
+        d.clear();
+        std::stringstream ss(only);
+        std::string item;
+        while (std::getline(ss, item, ','))
+            d.push_back(std::stoi(item));
+    }
+    return d;
+}();
 constexpr int kReferenceDelay = 20;
 
 std::string oursKey(const std::string &name, int delay)
@@ -254,6 +269,10 @@ std::vector<Method> methods(bool deshake, bool vidstab)
             m.push_back({oursKey(e.name, delay), "ours " + e.label, format("%s d%d", e.name.c_str(), delay), Kind::Ours,
                          c, e.name, delay});
         }
+    // UAVSTAB_BENCH_PEERS=0 leaves the peers out (for quick comparisons while tuning).
+    const char *peers = std::getenv("UAVSTAB_BENCH_PEERS");
+    if (peers && std::string(peers) == "0")
+        deshake = vidstab = false;
     if (vidstab) {
         m.push_back({"vidstab", "vid.stab default (optzoom=1)", "vid.stab", Kind::VidstabDefault, unused, "vidstab", -1});
         m.push_back({"vidstab_zoom", "vid.stab zoom 8.7 % (= ours)", "vid.stab z8.7", Kind::VidstabZoom, unused,
@@ -406,6 +425,8 @@ struct Metrics {
     double jitter = kNaN, jitter_stats = kNaN, crosscheck_px = kNaN;
     double jitter_steady = kNaN;  // the same after the first second: without the start-up
     double path_error = kNaN, path_error_stats = kNaN;  // against the intended path (synthetic::intendedPathError)
+    double path_jitter = kNaN;   // synthetic::intendedPathJitter after the first second
+    double path_max_dev = kNaN;  // synthetic::intendedPathMaxDeviation
     std::vector<Similarity> path;  // true world pose of the output frames (for plots)
     std::vector<double> zoom_series;  // registered input -> output zoom per frame (NaN: registration failed)
     // geometry from the registered output -> input
@@ -467,8 +488,12 @@ Metrics analyze(const Clip &clip, const std::vector<Features> &input_features, c
         m.jitter = synthetic::residualJitter(path, clip.width, clip.height);
         m.jitter_steady =
             synthetic::residualJitter(path, clip.width, clip.height, 8.0, std::size_t(std::lround(clip.fps())));
-        if (!clip.intended.empty())
+        if (!clip.intended.empty()) {
             m.path_error = synthetic::intendedPathError(path, clip.intended, clip.width, clip.height);
+            m.path_jitter = synthetic::intendedPathJitter(path, clip.intended, clip.width, clip.height,
+                                                          std::size_t(std::lround(clip.fps())));
+            m.path_max_dev = synthetic::intendedPathMaxDeviation(path, clip.intended, clip.width, clip.height);
+        }
         m.path = path;
     }
     if (!is_input) {
@@ -840,7 +865,8 @@ Table truthTable(const Options &o, const std::string &prefix, const std::vector<
     bool with_path = false;
     for (const ClipResult &r : results)
         with_path = with_path || !r.clip.intended.empty();
-    const std::vector<std::string> path_cols{"error vs intended path px", "vs vid.stab"};
+    const std::vector<std::string> path_cols{"jitter vs intended after 1 s px", "vs vid.stab",
+                                             "error vs intended path px", "vs vid.stab", "max deviation px"};
     const std::vector<std::string> jitter_cols{"residual jitter px", "vs vid.stab", "after 1 s px", "vs vid.stab"};
     std::vector<std::string> header{"method", "delay"};
     auto append = [&](const std::vector<std::string> &cols) { header.insert(header.end(), cols.begin(), cols.end()); };
@@ -860,6 +886,8 @@ Table truthTable(const Options &o, const std::string &prefix, const std::vector<
         const VsVidstab j = vsVidstab(results, m.key, &Metrics::jitter);
         const VsVidstab js = vsVidstab(results, m.key, &Metrics::jitter_steady);
         const VsVidstab e = vsVidstab(results, m.key, &Metrics::path_error);
+        const VsVidstab pj = vsVidstab(results, m.key, &Metrics::path_jitter);
+        const double max_dev = maxOf(collect(results, m.key, &Metrics::path_max_dev));
         const VsVidstab itf = vsVidstab(results, m.key, &Metrics::itf);
         int failed = 0, clips = 0;
         for (const ClipResult &r : results)
@@ -872,7 +900,8 @@ Table truthTable(const Options &o, const std::string &prefix, const std::vector<
         const double zoom = mean(collect(results, m.key, &Metrics::zoom_mean));
         const double zoom_max = maxOf(collect(results, m.key, &Metrics::zoom_max));
         const double dist = maxOf(collect(results, m.key, &Metrics::distortion_max));
-        const std::vector<std::string> path_cells{num(e.value), num(e.value / e.vidstab, "%.2fx")};
+        const std::vector<std::string> path_cells{num(pj.value), num(pj.value / pj.vidstab, "%.2fx"), num(e.value),
+                                                  num(e.value / e.vidstab, "%.2fx"), num(max_dev, "%.1f")};
         const std::vector<std::string> jitter_cells{num(j.value), num(j.value / j.vidstab, "%.2fx"), num(js.value),
                                                     num(js.value / js.vidstab, "%.2fx")};
         std::vector<std::string> row{m.label, delayCell(m)};
@@ -898,6 +927,9 @@ Table truthTable(const Options &o, const std::string &prefix, const std::vector<
         if (with_path) {
             putResult(o, key + ".path_error", e.value);
             putResult(o, key + ".path_error_vs_vidstab", e.value / e.vidstab);
+            putResult(o, key + ".path_jitter", pj.value);
+            putResult(o, key + ".path_jitter_vs_vidstab", pj.value / pj.vidstab);
+            putResult(o, key + ".path_max_dev", max_dev);
         }
         putResult(o, key + ".coverage_mean", cov_mean);
         putResult(o, key + ".coverage_min", cov_min);

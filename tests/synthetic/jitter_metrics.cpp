@@ -78,6 +78,46 @@ double intendedPathError(const std::vector<Similarity> &output_path, const std::
     return std::sqrt(sum2 / (4.0 * double(n)));
 }
 
+namespace {
+std::vector<Similarity> relativeToIntended(const std::vector<Similarity> &output_path,
+                                          const std::vector<Similarity> &intended_path)
+{
+    std::vector<Similarity> e;
+    for (std::size_t i = 0; i < std::min(output_path.size(), intended_path.size()); ++i)
+        e.push_back(intended_path[i].inverse() * output_path[i]);
+    return e;
+}
+} // namespace
+
+double intendedPathJitter(const std::vector<Similarity> &output_path, const std::vector<Similarity> &intended_path,
+                          int width, int height, std::size_t first)
+{
+    return residualJitter(relativeToIntended(output_path, intended_path), width, height, 8.0, first);
+}
+
+double intendedPathMaxDeviation(const std::vector<Similarity> &output_path,
+                                const std::vector<Similarity> &intended_path, int width, int height)
+{
+    const std::vector<Similarity> e = relativeToIntended(output_path, intended_path);
+    if (e.empty())
+        return 0.0;
+    const double hx = (width - 1) * 0.5, hy = (height - 1) * 0.5;
+    double worst = 0.0;
+    for (const Point2 corner : {Point2{-hx, -hy}, Point2{hx, -hy}, Point2{-hx, hy}, Point2{hx, hy}}) {
+        double mx = 0, my = 0;
+        for (const Similarity &s : e) {
+            const Point2 p = s.apply(corner);
+            mx += p.x / double(e.size());
+            my += p.y / double(e.size());
+        }
+        for (const Similarity &s : e) {
+            const Point2 p = s.apply(corner);
+            worst = std::max(worst, std::hypot(p.x - mx, p.y - my));
+        }
+    }
+    return worst;
+}
+
 double coverage(const Similarity &output_to_input, int width, int height)
 {
     constexpr int kGrid = 64;

@@ -33,6 +33,18 @@ double residualJitter(const std::vector<Similarity> &world_from_frame, int width
 double intendedPathError(const std::vector<Similarity> &output_path, const std::vector<Similarity> &intended_path,
                          int width, int height);
 
+// Jitter against the intended path: residualJitter of E_i = intended_i^-1 * output_i (the
+// high-pass of output minus intended, so a smooth lag or a constant offset costs nothing,
+// leftover shake and kinks where the output starts or stops late do), over the frames from
+// `first` on.
+double intendedPathJitter(const std::vector<Similarity> &output_path, const std::vector<Similarity> &intended_path,
+                          int width, int height, std::size_t first = 0);
+
+// The largest distance (px) of an output corner from its mean place relative to the intended
+// path (of E_i(corner) from the mean over frames of E_j(corner)): how far the output strays.
+double intendedPathMaxDeviation(const std::vector<Similarity> &output_path,
+                                const std::vector<Similarity> &intended_path, int width, int height);
+
 // Share of the output frame that shows picture: output pixels whose source lies inside
 // the input frame (sampled on a grid).
 double coverage(const Similarity &output_to_input, int width, int height);

@@ -86,7 +86,7 @@ TEST(ConfigParams, DefaultsAreTheStructsAndValid)
     // The documented defaults (README, config.hpp), through the table.
     EXPECT_EQ(findConfigParam("delay")->defaultValue(), 20);
     EXPECT_EQ(findConfigParam("smoothing_radius")->defaultValue(), 20);
-    EXPECT_EQ(findConfigParam("planner")->defaultValue(), double(PlannerKind::Optimal));
+    EXPECT_EQ(findConfigParam("planner")->defaultValue(), double(PlannerKind::L1));
     EXPECT_EQ(findConfigParam("planner_smoothness")->defaultValue(), 100000.0);
     EXPECT_EQ(findConfigParam("adaptive_zoom")->defaultValue(), 0.0);
     EXPECT_EQ(findConfigParam("max_corners")->defaultValue(), 50);

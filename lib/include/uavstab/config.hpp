@@ -27,9 +27,10 @@ enum class ModelChoice {
 
 // How the output path is planned from the camera path (path_planner.hpp).
 enum class PlannerKind {
-    Optimal,   // the path over the whole look-ahead, with the crop as a constraint (optimal_path_planner.hpp)
-    Gaussian,  // first wave: Gaussian window (sigma = radius / 2), then each frame clamped to the crop
+    Optimal,   // a smooth path that follows the camera's motion over the look-ahead, inside the crop (optimal_path_planner.hpp)
+    Gaussian,  // Gaussian window (sigma = radius / 2), then each frame clamped to the crop
     Box,       // paper: moving average over the window, then each frame clamped to the crop
+    L1,        // still where the crop allows, steady motion where it must move (l1_path_planner.hpp)
 };
 
 enum class BorderMode {
@@ -42,12 +43,12 @@ struct StabilizerConfig {
     // causal: the optimal planner then relies on the crop margin and an extrapolation.
     int delay = 20;
 
-    // Default: the optimal planner, which plans the path over the whole look-ahead with
-    // the crop as a constraint; it departs from the paper's moving average (still here as
-    // `box`, with smoothing_radius 10) because that, like the first wave's Gaussian, bends
-    // deliberate manoeuvres and clamps each frame to the crop on its own, and needs a long
-    // look-ahead (tests/bench/REPORT.md compares all three at delays 0-20).
-    PlannerKind planner = PlannerKind::Optimal;
+    // Default: the L1 planner, which holds the view still wherever the crop margin allows
+    // and moves at steady speed only where the camera moves further than the margin. It
+    // departs from the paper's moving average (here as `box`, with smoothing_radius 10):
+    // a window follows every slow sway and drift, bends deliberate manoeuvres and clamps
+    // each frame to the crop on its own (tests/bench/REPORT.md compares them at delays 0-20).
+    PlannerKind planner = PlannerKind::L1;
     // Window planners: half-width of the window, frames i-r .. i+r where known.
     int smoothing_radius = 20;
     // Optimal planner: weight of the jerk penalty against following the camera path;
