@@ -68,7 +68,7 @@ public:
         // Stage 1's cost per px of leaving the crop room (stage 2 makes the room hard).
         double edge_weight = 10.0;
         double epsilon = 0.01;  // px: the reweighting's floor
-        int rounds = 6;         // reweighting rounds per frame (warm-started)
+        int rounds = 4;         // reweighting rounds per frame (warm-started)
         int start_rounds = 25;  // at a segment's first frame
         // The followed path: smoothAxis's smoothness, and its catching up with a move the
         // camera keeps to one side of, at look-aheads up to catch_up_max_lookahead.
@@ -80,7 +80,7 @@ public:
         // followed path); at most short_tube of the room at a look-ahead of one frame,
         // widening to the whole room at full_tube_lookahead frames.
         double shake_margin = 1.5;
-        double short_tube = 0.15;
+        double short_tube = 0.5;
         int full_tube_lookahead = 20;
         // Steady moves: the L1 pull towards the followed path, in full where the
         // steadiness (|mean velocity| / (spread + steady_floor px at 640 px of width),
