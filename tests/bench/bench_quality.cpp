@@ -427,6 +427,7 @@ struct Metrics {
     double path_error = kNaN, path_error_stats = kNaN;  // against the intended path (synthetic::intendedPathError)
     double path_jitter = kNaN;   // synthetic::intendedPathJitter after the first second
     double path_max_dev = kNaN;  // synthetic::intendedPathMaxDeviation
+    double path_jitter_first = kNaN;  // synthetic::intendedPathJitter over the first second alone
     std::vector<Similarity> path;  // true world pose of the output frames (for plots)
     std::vector<double> zoom_series;  // registered input -> output zoom per frame (NaN: registration failed)
     // geometry from the registered output -> input
@@ -493,6 +494,11 @@ Metrics analyze(const Clip &clip, const std::vector<Features> &input_features, c
             m.path_jitter = synthetic::intendedPathJitter(path, clip.intended, clip.width, clip.height,
                                                           std::size_t(std::lround(clip.fps())));
             m.path_max_dev = synthetic::intendedPathMaxDeviation(path, clip.intended, clip.width, clip.height);
+            const std::size_t second = std::min(n, std::size_t(std::lround(clip.fps())));
+            m.path_jitter_first = synthetic::intendedPathJitter(
+                std::vector<Similarity>(path.begin(), path.begin() + long(second)),
+                std::vector<Similarity>(clip.intended.begin(), clip.intended.begin() + long(second)), clip.width,
+                clip.height);
         }
         m.path = path;
     }
@@ -729,7 +735,8 @@ std::string errorsOf(const std::vector<ClipResult> &results)
 // One frame's trajectory figure: dx, dy, angle of the raw path and of the smoothed paths.
 void trajectoryPlot(const Options &o, const ClipResult &r, const std::string &file, const std::string &truth_label)
 {
-    const Metrics *box = find(r, "ours_box10"), *gauss = find(r, "ours_gauss20"), *optimal = find(r, "ours_optimal");
+    const Metrics *box = find(r, "ours_box10"), *gauss = find(r, "ours_gauss20"), *optimal = find(r, "ours_optimal"),
+                  *l1 = find(r, "ours_l1");
     if (!box || box->stats.empty())
         return;
     const std::size_t n = box->stats.size();
@@ -765,7 +772,9 @@ void trajectoryPlot(const Options &o, const ClipResult &r, const std::string &fi
         if (gauss && gauss->stats.size() == n)
             s.push_back({"smoothed, gaussian r20", x, component(gauss->stats, true, k), paletteColor(4), 2});
         if (optimal && optimal->stats.size() == n)
-            s.push_back({"planned, optimal (default)", x, component(optimal->stats, true, k), paletteColor(2), 2});
+            s.push_back({"planned, optimal", x, component(optimal->stats, true, k), paletteColor(2), 2});
+        if (l1 && l1->stats.size() == n)
+            s.push_back({"planned, l1 (default)", x, component(l1->stats, true, k), paletteColor(4), 2});
         panels.push_back(linePlot(format("%s: %s", r.clip.label.c_str(), names[k]), "frame", names[k], s));
     }
     writePng(o.out_dir + "/" + file, stackVertically(panels));
@@ -930,6 +939,7 @@ Table truthTable(const Options &o, const std::string &prefix, const std::vector<
             putResult(o, key + ".path_jitter", pj.value);
             putResult(o, key + ".path_jitter_vs_vidstab", pj.value / pj.vidstab);
             putResult(o, key + ".path_max_dev", max_dev);
+            putResult(o, key + ".path_jitter_first", mean(collect(results, m.key, &Metrics::path_jitter_first)));
         }
         putResult(o, key + ".coverage_mean", cov_mean);
         putResult(o, key + ".coverage_min", cov_min);
@@ -1430,7 +1440,24 @@ void sectionReal(const Options &o, const std::vector<Method> &ms)
                  num(minOf(collect(results, m.key, &Metrics::coverage_min)), "%.4f"),
                  num(mean(collect(results, m.key, &Metrics::zoom_mean)), "%.3f"),
                  num(maxOf(collect(results, m.key, &Metrics::zoom_max)), "%.3f")});
+        // Against the Gaussian window at the reference delay (issue 20's target for the default).
+        int ge_gaussian = 0, with_gaussian = 0;
+        std::vector<double> diff_gaussian;
+        for (const ClipResult &r : results) {
+            const Metrics *x = find(r, m.key), *g = find(r, oursKey("gauss20", kReferenceDelay));
+            if (!x || !g || !std::isfinite(x->itf) || !std::isfinite(g->itf))
+                continue;
+            ++with_gaussian;
+            ge_gaussian += x->itf >= g->itf;
+            diff_gaussian.push_back(x->itf - g->itf);
+        }
         const std::string key = "quality.real." + m.key;
+        if (with_gaussian > 0) {
+            putResult(o, key + ".clips_with_gaussian", with_gaussian);
+            putResult(o, key + ".clips_itf_ge_gaussian", ge_gaussian);
+            putResult(o, key + ".itf_minus_gaussian_min", minOf(diff_gaussian));
+            putResult(o, key + ".itf_minus_gaussian", mean(diff_gaussian));
+        }
         putResult(o, key + ".stability_t", st);
         putResult(o, key + ".stability_r", sr);
         putResult(o, key + ".itf", itf);

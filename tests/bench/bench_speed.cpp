@@ -116,18 +116,20 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
               "`MotionEstimator::estimate` (luma extraction/downscale, pyramid, Shi-Tomasi every 5 frames, "
               "LK forward+backward, robust fit), the path planner (`PathPlanner::plan` for each frame of a "
               "300-frame shaky path with the delay's look-ahead: the paper's box r10 and the Gaussian r20 window "
-              "planners, and the optimal planner at delays 20 and 0; frame geometry only, so the same at every "
+              "planners, the l1 planner (the default) and the optimal planner at delays 20 and 0; frame geometry "
+              "only, so the same at every "
               "format), and `FrameWarper::warp` of a whole frame (OpenCV limited to 1 thread, and with OpenCV's "
               "default pool). ms/frame: mean (p95); for the planners mean (p99).");
-    Table t({"resolution", "format", "estimate", "plan box r10", "plan gauss r20", "plan optimal d20",
-             "plan optimal d0", "warp (1 cv thread)", "warp (cv default)", "sum (1 thread)", "other processes"});
+    Table t({"resolution", "format", "estimate", "plan box r10", "plan gauss r20", "plan l1 d20", "plan l1 d0",
+             "plan optimal d20", "plan optimal d0", "warp (1 cv thread)", "warp (cv default)", "sum (1 thread)",
+             "other processes"});
     const int default_threads = cv::getNumThreads();
     for (const ResolutionPlan &p : plans) {
         const auto &bgr = bgr_cache[p.res.name()];
         for (PixelFormat fmt : {PixelFormat::I420, PixelFormat::BGRx}) {
             const std::vector<FrameBuffer> frames = framesFromBgr(bgr, fmt);
             StabilizerConfig config;
-            std::vector<double> est, box, gauss, optimal20, optimal0, warp1, warpN;
+            std::vector<double> est, box, gauss, l1_20, l1_0, optimal20, optimal0, warp1, warpN;
             const double others = measureQuietly("stages " + p.res.name(), [&] {
                 cv::setNumThreads(1);
                 // Estimation.
@@ -175,6 +177,8 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
                 };
                 box = planCost(PlannerKind::Box, 10, 20);
                 gauss = planCost(PlannerKind::Gaussian, 20, 20);
+                l1_20 = planCost(PlannerKind::L1, 20, 20);
+                l1_0 = planCost(PlannerKind::L1, 20, 0);
                 optimal20 = planCost(PlannerKind::Optimal, 20, 20);
                 optimal0 = planCost(PlannerKind::Optimal, 20, 0);
                 // Warp.
@@ -200,21 +204,25 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
                 return format(f, mean(v), percentile(v, pct));
             };
             t.row({p.res.name(), formatName(fmt), cell(est, "%.2f (%.2f)"), cell(box, "%.4f (%.4f)", 99),
-                   cell(gauss, "%.4f (%.4f)", 99), cell(optimal20, "%.4f (%.4f)", 99),
-                   cell(optimal0, "%.4f (%.4f)", 99), cell(warp1, "%.2f (%.2f)"), cell(warpN, "%.2f (%.2f)"),
-                   format("%.2f", mean(est) + mean(optimal20) + mean(warp1)), loadCell(others)});
+                   cell(gauss, "%.4f (%.4f)", 99), cell(l1_20, "%.4f (%.4f)", 99), cell(l1_0, "%.4f (%.4f)", 99),
+                   cell(optimal20, "%.4f (%.4f)", 99), cell(optimal0, "%.4f (%.4f)", 99), cell(warp1, "%.2f (%.2f)"),
+                   cell(warpN, "%.2f (%.2f)"), format("%.2f", mean(est) + mean(l1_20) + mean(warp1)),
+                   loadCell(others)});
             const std::string key = format("stage.%s.%s", p.res.name().c_str(), formatName(fmt));
             putResult(o, key + ".estimate_ms", mean(est));
             putResult(o, key + ".plan_box10_ms", mean(box));
             putResult(o, key + ".plan_gauss20_ms", mean(gauss));
+            putResult(o, key + ".plan_l1_20_ms", mean(l1_20));
+            putResult(o, key + ".plan_l1_20_p99_ms", percentile(l1_20, 99));
+            putResult(o, key + ".plan_l1_0_ms", mean(l1_0));
             putResult(o, key + ".plan_optimal20_ms", mean(optimal20));
             putResult(o, key + ".plan_optimal20_p99_ms", percentile(optimal20, 99));
             putResult(o, key + ".plan_optimal0_ms", mean(optimal0));
             putResult(o, key + ".warp1_ms", mean(warp1));
             putResult(o, key + ".warpN_ms", mean(warpN));
-            std::printf("  stages %s %s: estimate %.2f ms, plan (optimal, delay 20) %.3f ms (p99 %.3f), warp %.2f ms "
+            std::printf("  stages %s %s: estimate %.2f ms, plan (l1, delay 20) %.3f ms (p99 %.3f), warp %.2f ms "
                         "(1 thread) %.2f ms (default)\n",
-                        p.res.name().c_str(), formatName(fmt), mean(est), mean(optimal20), percentile(optimal20, 99),
+                        p.res.name().c_str(), formatName(fmt), mean(est), mean(l1_20), percentile(l1_20, 99),
                         mean(warp1), mean(warpN));
             std::fflush(stdout);
         }
