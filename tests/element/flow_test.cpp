@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "test_support.hpp"
+#include "uavstab/config.hpp"
 
 using namespace element_test;
 
@@ -570,7 +571,7 @@ ELEMENT_TEST(properties_have_the_documented_defaults)
     gint max_errors = 0;
     g_object_get(element, "max-errors", &max_errors, nullptr);
     fail_unless_equals_int(max_errors, 10);  // GstVideoDecoder's default
-    fail_unless_equals_int(planner, 0);  // optimal
+    fail_unless_equals_int(planner, int(uavstab::PlannerKind::L1));
     // Enums are known by their nicks, as gst-launch spells them.
     setProperties(element, "planner=box model=similarity border=replicate");
     g_object_get(element, "planner", &planner, "model", &model, "border", &border, nullptr);
