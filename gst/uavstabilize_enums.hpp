@@ -1,5 +1,5 @@
 // GEnum types for the element's enum properties, so that gst-launch and gst-inspect
-// know them by nick ("optimal", "gaussian", ...). Values are the library's enum values.
+// know them by nick ("l1", "optimal", ...). Values are the library's enum values.
 #pragma once
 
 #include <glib-object.h>

@@ -2,7 +2,7 @@
 // the smallest complete use of the library API (push frames, pop results in order).
 //
 //   uavstab-stabilize-y4m IN.y4m OUT.y4m [--side-by-side SBS.y4m] [--truth TRUTH.csv]
-//                         [--delay N] [--radius R] [--planner optimal|gaussian|box] [--crop C]
+//                         [--delay N] [--radius R] [--planner l1|optimal|gaussian|box] [--crop C]
 //
 // With --truth (as written by uavstab-render-flight) it also prints the true residual
 // jitter of the input and of the output.
@@ -80,7 +80,10 @@ int main(int argc, char **argv)
             config.smoothing_radius = std::atoi(next().c_str());
         else if (a == "--planner") {
             const std::string p = next();
-            config.planner = p == "gaussian" ? PlannerKind::Gaussian : p == "box" ? PlannerKind::Box : PlannerKind::Optimal;
+            config.planner = p == "gaussian" ? PlannerKind::Gaussian
+                             : p == "box"    ? PlannerKind::Box
+                             : p == "optimal" ? PlannerKind::Optimal
+                                              : PlannerKind::L1;
         }
         else if (a == "--crop")
             config.crop = std::atof(next().c_str());
@@ -90,7 +93,7 @@ int main(int argc, char **argv)
             out_path = a;
         else {
             std::cerr << "usage: uavstab-stabilize-y4m IN.y4m OUT.y4m [--side-by-side SBS.y4m] [--truth CSV]"
-                         " [--delay N] [--radius R] [--planner optimal|gaussian|box] [--crop C]\n";
+                         " [--delay N] [--radius R] [--planner l1|optimal|gaussian|box] [--crop C]\n";
             return 2;
         }
     }

@@ -49,10 +49,10 @@ std::vector<ConfigParam> makeTable()
                                       "path; larger is smoother and bends deliberate motion more",
                                       1.0, 1e7),
         param<&C::planner_manoeuvre>("planner_manoeuvre", "Planner manoeuvre threshold",
-                                     "Optimal planner, at delays up to 7: the path gives up smoothness to catch up "
-                                     "with a deliberate move when the camera has kept to one side of it for 8 frames "
-                                     "by more than this many times the shake's level (0 = never; lower catches up "
-                                     "sooner)",
+                                     "At delays up to 7 (l1 and optimal planners): the path the output follows "
+                                     "gives up smoothness to catch up with a deliberate move when the camera has kept "
+                                     "to one side of it for 8 frames by more than this many times the shake's level "
+                                     "(0 = never; lower catches up sooner)",
                                      0.0, 100.0),
         param<&C::max_corners>("max_corners", "Max corners", "Corners tracked per frame", 4, 200),
         param<&C::roi>("roi", "Region of interest", "Central share of width and height where corners are detected",
@@ -78,11 +78,12 @@ std::vector<ConfigParam> makeTable()
                         "crop))",
                         0.0, 0.5),
         flag<&C::limit_to_crop>("limit_to_crop", "Limit to crop",
-                                "Keep the output covered by picture: the optimal planner plans the path inside the "
-                                "crop, the window planners shrink each frame's correction; off, borders may show"),
+                                "Keep the output covered by picture: the l1 and optimal planners plan the path "
+                                "inside the crop, the window planners shrink each frame's correction; off, borders "
+                                "may show"),
         flag<&C::adaptive_zoom>("adaptive_zoom", "Adaptive zoom",
-                                "Optimal planner: zoom in beyond 'crop' as far and as early as the look-ahead shows "
-                                "the path needs, up to max-zoom, and out again slowly"),
+                                "Optimal planner only (planner=optimal): zoom in beyond 'crop' as far and as early "
+                                "as the look-ahead shows the path needs, up to max-zoom, and out again slowly"),
         param<&C::max_zoom>("max_zoom", "Max zoom", "Adaptive zoom: the largest zoom", 1.0, 4.0),
         param<&C::zoom_speed>("zoom_speed", "Zoom speed",
                               "Adaptive zoom: largest change of the zoom per frame when zooming in (out: a quarter)",

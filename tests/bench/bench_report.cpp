@@ -360,6 +360,9 @@ int main(int argc, char **argv)
           << readFile(o.out_dir + "/quality_manoeuvre.md");
         r << "### Real drone clip with known shake\n\n" << readFile(o.out_dir + "/quality_drone.md");
         r << "### Real clips\n\n" << readFile(o.out_dir + "/quality_real.md");
+        const std::string path = readFile(o.out_dir + "/quality_path.md");
+        if (!path.empty())
+            r << "### The planners alone (perfect motion estimates)\n\n" << path;
         const std::string reliability = readFile(o.out_dir + "/reliability.md");
         if (!reliability.empty())
             r << "## Reliability\n\n" << reliability;

@@ -67,7 +67,7 @@ void sectionLibrary(const Options &o, const std::vector<ResolutionPlan> &plans,
     Fragment frag(o, "speed_lib");
     const int runs = o.quick ? 3 : 5;
     frag.text(format("Library alone: `Stabilizer` push/tryPop on frames made in memory beforehand (the synthetic "
-                     "flight, played back and forth), default config (delay 20, gaussian r20, analysis width 640), "
+                     "flight, played back and forth), default config (delay 20, l1 planner, analysis width 640), "
                      "output frames recycled from a pool, at most threads+2 warps in flight. Frames/s, median "
                      "(min-max) of %d runs after one warm-up run. OpenCV's own thread pool: %d threads.",
                      runs, cv::getNumThreads()));

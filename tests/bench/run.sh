@@ -2,12 +2,12 @@
 # The benchmark of uavstabilize: throughput, latency, memory and quality of the library and
 # the GStreamer element, beside ffmpeg's deshake and vid.stab on the same frames.
 #
-#   bash tests/bench/run.sh            # full run (~30 min on 2 cores, quality ~8-10 of it); updates tests/bench/REPORT.md + PNGs
+#   bash tests/bench/run.sh            # full run (~45-50 min on 2 cores, quality ~20 of it); updates tests/bench/REPORT.md + PNGs
 #   bash tests/bench/run.sh --quick    # fewer runs/resolutions/clips (~3-5 min); report in the out dir only
 #
 # Options: --out DIR (default build-bench/bench-out), --no-wait (do not wait for a quiet
 # machine), --no-build (use the build dir as it is), --only PROGRAM (speed, element, memory,
-# quality, streams; repeatable; the report is still assembled from whatever the out dir holds,
+# quality, path, streams; repeatable; the report is still assembled from whatever the out dir holds,
 # under the header of the run that made it, with a line saying what was re-run).
 # Uses its own build dir, build-bench (UAVSTAB_BENCH_BUILD_DIR overrides). Real clips are
 # read from ../shared/data (relative to the repository) when present and skipped when not.
@@ -115,6 +115,15 @@ fi
 if wants quality; then
   step "quality"
   "$bin/uavstab-bench-quality" --out "$out" --data "$data" "${quick[@]}"
+fi
+if wants path; then
+  step "planners alone (perfect estimates)"
+  if [[ ${#quick[@]} -gt 0 ]]; then
+    "$bin/uavstab-bench-path" --planner l1 --planner optimal --seeds 1 --strengths 1 --out "$out/quality_path.md" >/dev/null
+  else
+    "$bin/uavstab-bench-path" --planner l1 --planner optimal --planner gaussian --seeds 3 --strengths 0.5,1,2 \
+      --out "$out/quality_path.md" >/dev/null
+  fi
 fi
 if wants streams; then
   step "live streams at once"

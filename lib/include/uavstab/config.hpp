@@ -54,9 +54,10 @@ struct StabilizerConfig {
     // Optimal planner: weight of the jerk penalty against following the camera path;
     // larger is smoother and bends deliberate motion more.
     double planner_smoothness = 100000.0;
-    // Optimal planner, at delays up to 7: the path gives up smoothness to catch up with a
-    // deliberate move when the camera has kept to one side of it for 8 frames by more
-    // than this many times the shake's level (0 = never; lower catches up sooner).
+    // At delays up to 7 (l1 and optimal planners): the path the output follows gives up
+    // smoothness to catch up with a deliberate move when the camera has kept to one side of
+    // it for 8 frames by more than this many times the shake's level (0 = never; lower
+    // catches up sooner).
     double planner_manoeuvre = 0.7;
 
     // Shi-Tomasi corners tracked per frame (paper: 50; at most 200).
@@ -89,8 +90,8 @@ struct StabilizerConfig {
     // Shrink a correction that would show more border than the crop hides, so that
     // the output stays covered by picture.
     bool limit_to_crop = true;
-    // Optimal planner: zoom in beyond `crop` as far and as early as the look-ahead shows
-    // the path needs, up to max_zoom, by at most zoom_speed per frame (out at a quarter).
+    // Optimal planner only: zoom in beyond `crop` as far and as early as the look-ahead
+    // shows the path needs, up to max_zoom, by at most zoom_speed per frame (out at a quarter).
     bool adaptive_zoom = false;
     double max_zoom = 1.25;
     double zoom_speed = 0.001;
