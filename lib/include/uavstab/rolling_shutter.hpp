@@ -1,0 +1,93 @@
+// Rolling shutter: how the camera moved while a frame was read out, row by row.
+//
+// A CMOS sensor reads its rows one after another over most of the frame time. When the
+// camera vibrates (propellers) each row sees it somewhere else, and the frame bends
+// (wobble, "jello"). The estimator finds, from the tracked points alone, where each row
+// of a frame sits relative to the image a global shutter would have taken at the frame's
+// mid-exposure (its middle row); the warp then samples each output row through its own
+// transform, so that the output is that mid-exposure image (frame_warper.hpp).
+//
+// How: after the frame-to-frame similarity is fitted, what is left of the tracks'
+// motion is fitted by a smooth mixture of small per-band motions (a shift and a turn per
+// horizontal band, Gaussian weights between bands, differences between neighbouring
+// bands penalised: Grundmann, Kwatra, Castro, Essa, "Calibration-free rolling shutter
+// removal", ICCP 2012). Those are differences between this frame's row offsets and the
+// previous frame's at the same rows; the offsets are their leaky sum (so an error fades
+// instead of staying for good), pinned to zero at the middle row. A camera moving at
+// constant speed skews every frame alike and leaves no such difference: with the readout
+// time known, the skew is added from the estimated speed.
+#pragma once
+
+#include <vector>
+
+#include "uavstab/motion_model.hpp"
+#include "uavstab/similarity.hpp"
+
+namespace uavstab {
+
+// Where the rows of one frame sit relative to its mid-exposure image.
+struct RowMotion {
+    // Centred luma rows of the band centres (ascending) and, per band, the transform from
+    // the mid-exposure image to this frame at that row (a small shift and turn). Empty:
+    // every row is where a global shutter would have put it.
+    std::vector<double> rows;
+    std::vector<Similarity> offsets;
+    // RMS over bands of the offset's shift (px): how much the frame is bent.
+    double wobble = 0.0;
+
+    bool empty() const { return rows.empty(); }
+    // The offset at centred row y, linearly interpolated between band centres (held
+    // beyond the first and last).
+    Similarity at(double y) const;
+};
+
+class RollingShutterEstimator {
+public:
+    struct Settings {
+        int bands = 12;
+        // Share of the frame time over which rows are read, when known (0: unknown, only
+        // the changes from frame to frame are corrected).
+        double readout = 0.0;
+        // Unknown readout (auto): no correction while the bands' residual motion stays
+        // below `threshold` px RMS (at 640 px of width; it grows with the frame), full at
+        // twice that. The residual is averaged over about `settle` frames.
+        bool automatic = true;
+        double threshold = 0.15;
+        int settle = 15;
+        // Each frame keeps this share of the previous frame's offsets before adding its
+        // own differences: an estimation error fades over some ten frames.
+        double leak = 0.85;
+        // Penalty on differences between neighbouring bands and on the size of each band's
+        // motion, per tracked point (px^2 per px^2).
+        double band_smoothness = 0.02;
+        double band_ridge = 0.002;
+        // Residuals (px at 640 px of width) beyond which a track's weight falls (Huber).
+        double robust = 1.5;
+    };
+
+    explicit RollingShutterEstimator(const Settings &settings);
+    RollingShutterEstimator() : RollingShutterEstimator(Settings{}) {}
+
+    // One frame: the tracks' positions in the previous frame and this one (centred,
+    // full resolution), and the fitted motion (this frame -> previous). Returns this frame's
+    // row offsets (empty when no wobble is found or too few tracks) and may refine `motion`
+    // to the mid-exposure motion (the fit repeated with the rows put where they belong).
+    RowMotion estimate(const std::vector<Point2> &previous, const std::vector<Point2> &current,
+                       MotionModel model, Similarity &motion, int width, int height);
+    // The next frame starts afresh (first frame, scene cut).
+    void reset();
+    void setSettings(const Settings &settings);
+    // The residual level the automatic mode compares with its threshold (px at 640).
+    double residualLevel() const { return level_; }
+
+private:
+    Settings settings_;
+    int width_ = 0, height_ = 0;
+    // The previous frame's offsets, 3 per band (x, y, turn in px at half the width): as
+    // estimated, and as applied (scaled down by the automatic mode).
+    std::vector<double> offsets_, applied_;
+    double level_ = 0.0;
+    int frames_ = 0;
+};
+
+} // namespace uavstab

@@ -1,0 +1,276 @@
+#include "uavstab/rolling_shutter.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+namespace uavstab {
+
+namespace {
+
+constexpr int kUnknownsPerBand = 3;  // shift x, shift y, turn (px at half the width)
+constexpr int kRounds = 3;           // reweighting rounds of the robust fit
+
+struct Bands {
+    int count;
+    double first, spacing;  // centred row of band 0's centre, rows between centres
+    double centre(int b) const { return first + spacing * b; }
+};
+
+Bands bandsFor(int height, int count)
+{
+    const double spacing = double(height) / count;
+    return {count, -0.5 * (height - 1) + 0.5 * spacing, spacing};
+}
+
+// Gaussian weights of the bands at row y, summing to one: each point's motion is a smooth
+// blend of its neighbouring bands' motions.
+void bandWeights(const Bands &bands, double y, std::vector<double> &w)
+{
+    w.resize(std::size_t(bands.count));
+    double sum = 0.0;
+    for (int b = 0; b < bands.count; ++b) {
+        const double d = (y - bands.centre(b)) / bands.spacing;
+        w[std::size_t(b)] = std::exp(-0.5 * d * d);
+        sum += w[std::size_t(b)];
+    }
+    for (double &v : w)
+        v /= sum;
+}
+
+// Band b's offset (x, y, turn) as the transform mid-exposure -> captured: a turn about the
+// band's centre row, then the shift.
+Similarity offsetTransform(double x, double y, double turn_px, double half_width, double centre)
+{
+    const double angle = turn_px / half_width;
+    // R(u - c) + c + s with c = (0, centre).
+    return {x + std::sin(angle) * centre, y + centre * (1.0 - std::cos(angle)), angle, 1.0};
+}
+
+Point2 offsetAt(const std::vector<double> &o, const Bands &bands, double half_width, Point2 p)
+{
+    // Linear between band centres, as RowMotion::at.
+    const double t = std::clamp((p.y - bands.first) / bands.spacing, 0.0, double(bands.count - 1));
+    const int b = std::min(int(t), bands.count - 2 < 0 ? 0 : bands.count - 2);
+    const double f = bands.count > 1 ? t - b : 0.0;
+    double v[kUnknownsPerBand];
+    for (int k = 0; k < kUnknownsPerBand; ++k) {
+        const double a = o[std::size_t(b * kUnknownsPerBand + k)];
+        const double c = bands.count > 1 ? o[std::size_t((b + 1) * kUnknownsPerBand + k)] : a;
+        v[k] = a + f * (c - a);
+    }
+    const double centre = bands.first + bands.spacing * t;
+    const double turn = v[2] / half_width;
+    return {v[0] - turn * (p.y - centre), v[1] + turn * p.x};
+}
+
+} // namespace
+
+Similarity RowMotion::at(double y) const
+{
+    if (rows.empty())
+        return Similarity::identity();
+    if (y <= rows.front())
+        return offsets.front();
+    if (y >= rows.back())
+        return offsets.back();
+    const std::size_t b = std::size_t(std::upper_bound(rows.begin(), rows.end(), y) - rows.begin()) - 1;
+    const double f = (y - rows[b]) / (rows[b + 1] - rows[b]);
+    const Similarity &a = offsets[b], &c = offsets[b + 1];
+    return {a.dx + f * (c.dx - a.dx), a.dy + f * (c.dy - a.dy), a.angle + f * (c.angle - a.angle),
+            a.scale + f * (c.scale - a.scale)};
+}
+
+RollingShutterEstimator::RollingShutterEstimator(const Settings &settings) : settings_(settings) {}
+
+void RollingShutterEstimator::setSettings(const Settings &settings)
+{
+    settings_ = settings;
+}
+
+void RollingShutterEstimator::reset()
+{
+    offsets_.clear();
+    applied_.clear();
+    level_ = 0.0;
+    frames_ = 0;
+}
+
+RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous, const std::vector<Point2> &current,
+                                            MotionModel model, Similarity &motion, int width, int height)
+{
+    const int band_count = std::clamp(settings_.bands, 1, std::max(1, height / 8));
+    const Bands bands = bandsFor(height, band_count);
+    const std::size_t unknowns = std::size_t(band_count * kUnknownsPerBand);
+    if (width != width_ || height != height_ || offsets_.size() != unknowns) {
+        reset();
+        width_ = width;
+        height_ = height;
+    }
+    if (offsets_.empty()) {
+        offsets_.assign(unknowns, 0.0);
+        applied_.assign(unknowns, 0.0);
+    }
+    const double half_width = 0.5 * width;
+    const double px640 = double(width) / 640.0;
+    const std::size_t n = std::min(previous.size(), current.size());
+    // Too few tracks to tell bands apart: the offsets fade out.
+    const bool enough = n >= std::size_t(2 * band_count);
+
+    // What the similarity leaves: previous - motion(current), per track.
+    std::vector<Point2> residual(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Point2 m = motion.apply(current[i]);
+        residual[i] = {previous[i].x - m.x, previous[i].y - m.y};
+    }
+
+    // The bands' motion differences z (this frame's offsets minus the previous frame's,
+    // negated), by robust weighted least squares.
+    Eigen::VectorXd z = Eigen::VectorXd::Zero(Eigen::Index(unknowns));
+    std::vector<double> robust_weight(n, 1.0);
+    double residual_rms = 0.0;
+    if (enough) {
+        std::vector<double> w;
+        const double huber = settings_.robust * px640;
+        for (int round = 0; round < kRounds; ++round) {
+            Eigen::MatrixXd a = Eigen::MatrixXd::Zero(Eigen::Index(unknowns), Eigen::Index(unknowns));
+            Eigen::VectorXd rhs = Eigen::VectorXd::Zero(Eigen::Index(unknowns));
+            Eigen::VectorXd gx_all = Eigen::VectorXd::Zero(Eigen::Index(unknowns)), gy_all = gx_all;
+            double weight_sum = 0.0;
+            for (std::size_t i = 0; i < n; ++i) {
+                const Point2 p = current[i];
+                bandWeights(bands, p.y, w);
+                // Only the bands near the point's row carry weight: accumulate over those.
+                int lo = band_count, hi = -1;
+                for (int b = 0; b < band_count; ++b)
+                    if (w[std::size_t(b)] >= 1e-4) {
+                        lo = std::min(lo, b);
+                        hi = b;
+                    }
+                const Eigen::Index k0 = lo * kUnknownsPerBand, span = (hi - lo + 1) * kUnknownsPerBand;
+                auto gx = gx_all.head(span), gy = gy_all.head(span);
+                gx.setZero();
+                gy.setZero();
+                for (int b = lo; b <= hi; ++b) {
+                    const double wb = w[std::size_t(b)];
+                    const Eigen::Index k = (b - lo) * kUnknownsPerBand;
+                    gx[k] = wb;
+                    gx[k + 2] = -wb * (p.y - bands.centre(b)) / half_width;
+                    gy[k + 1] = wb;
+                    gy[k + 2] = wb * p.x / half_width;
+                }
+                const double rw = robust_weight[i];
+                a.block(k0, k0, span, span).noalias() += rw * (gx * gx.transpose() + gy * gy.transpose());
+                rhs.segment(k0, span).noalias() += rw * (gx * residual[i].x + gy * residual[i].y);
+                weight_sum += rw;
+            }
+            const double smooth = settings_.band_smoothness * weight_sum, ridge = settings_.band_ridge * weight_sum;
+            for (int b = 0; b < band_count; ++b)
+                for (int k = 0; k < kUnknownsPerBand; ++k) {
+                    const Eigen::Index i = b * kUnknownsPerBand + k;
+                    a(i, i) += ridge;
+                    if (b + 1 < band_count) {
+                        const Eigen::Index j = i + kUnknownsPerBand;
+                        a(i, i) += smooth;
+                        a(j, j) += smooth;
+                        a(i, j) -= smooth;
+                        a(j, i) -= smooth;
+                    }
+                }
+            z = a.ldlt().solve(rhs);
+            // Reweight by each track's distance from the band model (Huber).
+            double sum2 = 0.0;
+            const std::vector<double> band_motion(z.data(), z.data() + z.size());
+            for (std::size_t i = 0; i < n; ++i) {
+                const Point2 model_i = offsetAt(band_motion, bands, half_width, current[i]);
+                const double r = std::hypot(residual[i].x - model_i.x, residual[i].y - model_i.y);
+                robust_weight[i] = r <= huber ? 1.0 : huber / r;
+                sum2 += robust_weight[i] * (model_i.x * model_i.x + model_i.y * model_i.y);
+            }
+            residual_rms = std::sqrt(sum2 / std::max(1.0, weight_sum));
+        }
+    }
+
+    // This frame's offsets: the previous frame's, faded, less the differences.
+    std::vector<double> offsets(unknowns);
+    for (std::size_t k = 0; k < unknowns; ++k)
+        offsets[k] = settings_.leak * offsets_[k] - (enough ? z[Eigen::Index(k)] : 0.0);
+    // The middle row is the frame's mid-exposure: it stays where it is.
+    const Point2 mid_shift = offsetAt(offsets, bands, half_width, {0.0, 0.0});
+    {
+        const double t = std::clamp((0.0 - bands.first) / bands.spacing, 0.0, double(band_count - 1));
+        const int b = std::min(int(t), std::max(0, band_count - 2));
+        const double f = band_count > 1 ? t - b : 0.0;
+        const double turn0 = offsets[std::size_t(b * 3 + 2)];
+        const double turn1 = band_count > 1 ? offsets[std::size_t((b + 1) * 3 + 2)] : turn0;
+        const double mid_turn = turn0 + f * (turn1 - turn0);
+        for (int c = 0; c < band_count; ++c) {
+            // Removing a turn about the frame's centre shifts each band's centre row.
+            offsets[std::size_t(c * 3 + 0)] -= mid_shift.x - mid_turn / half_width * bands.centre(c);
+            offsets[std::size_t(c * 3 + 1)] -= mid_shift.y;
+            offsets[std::size_t(c * 3 + 2)] -= mid_turn;
+        }
+    }
+    offsets_ = offsets;
+
+    // How much to apply: all of it when the readout is known or the mode is forced, else
+    // in proportion to how far the bands' residual motion stands above the threshold.
+    ++frames_;
+    const double alpha = 1.0 / double(std::min(frames_, std::max(1, settings_.settle)));
+    level_ += alpha * (residual_rms / px640 - level_);
+    double gain = 1.0;
+    if (settings_.automatic && settings_.readout <= 0.0)
+        gain = std::clamp((level_ - settings_.threshold) / std::max(1e-9, settings_.threshold), 0.0, 1.0);
+    std::vector<double> applied(unknowns);
+    for (std::size_t k = 0; k < unknowns; ++k)
+        applied[k] = gain * offsets[k];
+    // A known readout: the skew of a camera moving at the estimated speed, added whole.
+    // `motion` takes this frame's points to the previous frame's: its shift is the camera's
+    // velocity; a row read later sees the camera further on, the picture further back.
+    if (settings_.readout > 0.0 && height > 1) {
+        const double rho = settings_.readout / double(height);
+        for (int b = 0; b < band_count; ++b) {
+            const double tau = rho * bands.centre(b);  // frames after mid-exposure
+            const double turn = -motion.angle * tau;   // radians
+            applied[std::size_t(b * 3 + 0)] += -motion.dx * tau - turn * bands.centre(b);
+            applied[std::size_t(b * 3 + 1)] += -motion.dy * tau;
+            applied[std::size_t(b * 3 + 2)] += turn * half_width;
+        }
+    }
+
+    RowMotion result;
+    bool any = false;
+    for (double v : applied)
+        any = any || std::abs(v) > 1e-6;
+    if (any) {
+        double sum2 = 0.0;
+        for (int b = 0; b < band_count; ++b) {
+            const double x = applied[std::size_t(b * 3)], y = applied[std::size_t(b * 3 + 1)];
+            result.rows.push_back(bands.centre(b));
+            result.offsets.push_back(offsetTransform(x, y, applied[std::size_t(b * 3 + 2)], half_width, bands.centre(b)));
+            sum2 += x * x + y * y;
+        }
+        result.wobble = std::sqrt(sum2 / band_count);
+
+        // The motion between the two mid-exposure images: the fit again, with each track put
+        // where a global shutter would have seen it in both frames.
+        if (enough) {
+            std::vector<Point2> from(n), to(n);
+            std::vector<std::uint8_t> use(n);
+            for (std::size_t i = 0; i < n; ++i) {
+                const Point2 oc = offsetAt(applied, bands, half_width, current[i]);
+                const Point2 op = offsetAt(applied_, bands, half_width, previous[i]);
+                from[i] = {current[i].x - oc.x, current[i].y - oc.y};
+                to[i] = {previous[i].x - op.x, previous[i].y - op.y};
+                use[i] = robust_weight[i] >= 0.999;
+            }
+            if (std::count(use.begin(), use.end(), 1) >= 4)
+                motion = fitLeastSquares(model, from, to, &use);
+        }
+    }
+    applied_ = applied;
+    return result;
+}
+
+} // namespace uavstab
