@@ -188,6 +188,7 @@ GstBuffer *attachStabMeta(GstBuffer *buffer, const uavstab::StabilizedFrame &fra
         meta->outcome = GST_UAV_STAB_OUTCOME_PASSED_THROUGH;
     meta->width = width;
     meta->height = height;
+    meta->wobble = warped ? stats.row_motion.wobble : 0.0;
     if (warped)
         pixelMatrix3x3(stats.output_to_input, width, height, meta->output_to_input);
     else

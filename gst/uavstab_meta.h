@@ -46,7 +46,7 @@ G_BEGIN_DECLS
 #define GST_UAV_STAB_META_API_NAME "GstUavStabMetaAPI"
 #define GST_UAV_STAB_META_IMPL_NAME "GstUavStabMeta"
 /* Bumped when fields are added (at the end of the struct). */
-#define GST_UAV_STAB_META_VERSION 1
+#define GST_UAV_STAB_META_VERSION 2
 
 /* A similarity about the frame centre: p' = scale * R(angle) * p + (dx, dy). */
 typedef struct {
@@ -89,6 +89,10 @@ typedef struct {
     gint width;                     /* the frame `output_to_input` refers to (the buffer's size) */
     gint height;
     gdouble output_to_input[9];     /* row-major 3x3, pixel coordinates (see above) */
+    /* version >= 2 */
+    gdouble wobble;                 /* rolling shutter: RMS px by which the input's rows were bent and put
+                                       back (each output row then has its own transform, near output_to_input);
+                                       0 = not corrected */
 } GstUavStabMeta;
 
 /* The meta's API type, or 0 (G_TYPE_INVALID) while the plugin is not loaded. */

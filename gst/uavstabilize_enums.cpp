@@ -45,6 +45,19 @@ GType uavstabilize_model_get_type()
     return registerEnum(&type, "GstUavStabilizeModel", values);
 }
 
+GType uavstabilize_rolling_shutter_get_type()
+{
+    static gsize type = 0;
+    static const GEnumValue values[] = {
+        {int(uavstab::RollingShutter::Auto),
+         "Remove a rolling shutter's wobble where the footage shows one, leave other footage as it is (default)",
+         "auto"},
+        {int(uavstab::RollingShutter::Off), "Take every frame as one instant", "off"},
+        {0, nullptr, nullptr},
+    };
+    return registerEnum(&type, "GstUavStabilizeRollingShutter", values);
+}
+
 GType uavstabilize_border_get_type()
 {
     static gsize type = 0;
@@ -66,6 +79,7 @@ GType uavstabilize_enum_type_for_field(const char *field)
         {"planner", uavstabilize_planner_get_type},
         {"model", uavstabilize_model_get_type},
         {"border", uavstabilize_border_get_type},
+        {"rolling_shutter", uavstabilize_rolling_shutter_get_type},
     };
     for (const auto &entry : types)
         if (g_strcmp0(entry.field, field) == 0)

@@ -95,6 +95,10 @@ GstFlowReturn chainFrame(GstUavStabilize *self, UavStabilizeState &s, BufferPtr 
         return GST_FLOW_NOT_NEGOTIATED;
     }
     applyChangedSettings(self, s);
+    // A known sensor readout time is a share of this.
+    const GstClockTime frame_duration = s.timing.frameDuration();
+    s.stabilizer->setFrameInterval(GST_CLOCK_TIME_IS_VALID(frame_duration) ? double(frame_duration) / GST_MSECOND
+                                                                            : 0.0);
     if (GST_BUFFER_IS_DISCONT(buffer.get()))
         s.stabilizer->markDiscontinuity();
     buffer = detachFromSmallPool(self, s, std::move(buffer));

@@ -61,6 +61,11 @@ const char *toString(PlannerKind p)
     }
 }
 
+const char *toString(RollingShutter r)
+{
+    return r == RollingShutter::Off ? "off" : "auto";
+}
+
 const char *toString(BorderMode b)
 {
     return b == BorderMode::Replicate ? "replicate" : "black";

@@ -99,6 +99,16 @@ std::vector<ConfigParam> makeTable()
                                  "Find screen-fixed overlays automatically: tracks that stay put while the rest of "
                                  "the picture moves are not used, and no corners are detected where they keep "
                                  "showing up (for a while)"),
+        param<&C::rolling_shutter>("rolling_shutter", "Rolling shutter",
+                                   "auto: where the footage shows a rolling shutter's wobble (jello: a CMOS sensor "
+                                   "reads its rows one after another while the camera vibrates), every row is put "
+                                   "back where the frame's mid-exposure saw it; footage without wobble is left as "
+                                   "it is. off: every frame is taken as one instant",
+                                   RollingShutter::Auto, RollingShutter::Off),
+        param<&C::readout_time>("readout_time", "Readout time",
+                                "The camera sensor's readout time in ms, when known (0 = unknown, estimated from "
+                                "the footage). Known, the skew of a moving camera is corrected too",
+                                0.0, 1000.0),
         param<&C::analysis_width>("analysis_width", "Analysis width",
                                   "Motion is estimated on luma downscaled to this width (full size when smaller)", 16,
                                   16384),

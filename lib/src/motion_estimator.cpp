@@ -35,6 +35,21 @@ void MotionEstimator::reset()
 {
     tracker_.reset();
     selector_.reset();
+    rolling_shutter_.reset();
+}
+
+RollingShutterEstimator::Settings MotionEstimator::rollingShutterSettings() const
+{
+    RollingShutterEstimator::Settings s;
+    if (config_.readout_time > 0.0 && frame_interval_ms_ > 0.0)
+        s.readout = std::min(1.0, config_.readout_time / frame_interval_ms_);
+    return s;
+}
+
+void MotionEstimator::setFrameInterval(double milliseconds)
+{
+    frame_interval_ms_ = milliseconds > 0.0 && std::isfinite(milliseconds) ? milliseconds : 0.0;
+    rolling_shutter_.setSettings(rollingShutterSettings());
 }
 
 void MotionEstimator::setConfig(const StabilizerConfig &config)
@@ -43,9 +58,12 @@ void MotionEstimator::setConfig(const StabilizerConfig &config)
         screen_fixed_->clear();
         tracker_.setAutoExclude({});
     }
+    if (config.rolling_shutter != config_.rolling_shutter)
+        rolling_shutter_.reset();
     config_ = config;
     tracker_.setConfig(config);
     selector_.setChoice(config.model, config.dwell);
+    rolling_shutter_.setSettings(rollingShutterSettings());
 }
 
 MotionEstimate MotionEstimator::estimate(const FrameView &frame)
@@ -115,9 +133,13 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
         for (TrackedPoint &t : result.tracks)
             t.inlier = false;
         result.lost = true;
+        rolling_shutter_.reset();
         return result;
     }
     result.motion = fit.motion;
+    if (config_.rolling_shutter != RollingShutter::Off)
+        result.row_motion =
+            rolling_shutter_.estimate(to, from, model, result.motion, frame.width, frame.height);
     return result;
 }
 

@@ -95,6 +95,11 @@ void Stabilizer::applyConfig()
     frame_config_ = std::make_shared<const StabilizerConfig>(config_);
 }
 
+void Stabilizer::setFrameInterval(double milliseconds)
+{
+    estimator_.setFrameInterval(milliseconds);
+}
+
 void Stabilizer::setReadyCallback(std::function<void()> callback)
 {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -144,6 +149,7 @@ void Stabilizer::push(std::unique_ptr<FrameSlot> slot)
         held.stats.inliers = estimate.inliers;
         held.stats.skipped = estimate.skipped;
         held.stats.tracks = std::move(estimate.tracks);
+        held.stats.row_motion = std::move(estimate.row_motion);
         // A lost view (scene cut, flash) starts a new path: smoothing must not pull the
         // frames of one scene towards those of another.
         discontinuity_ = discontinuity_ || estimate.lost;

@@ -33,6 +33,11 @@ enum class PlannerKind {
     L1,        // still where the crop allows, steady motion where it must move (l1_path_planner.hpp)
 };
 
+enum class RollingShutter {
+    Auto,  // bend each frame back where the footage shows a rolling shutter's wobble
+    Off,   // every frame is taken as one picture of one instant
+};
+
 enum class BorderMode {
     Black,      // uncovered output pixels are black
     Replicate,  // uncovered output pixels repeat the nearest edge pixel
@@ -108,6 +113,16 @@ struct StabilizerConfig {
     // from pinning the estimate (tests/unit/exclude_test.cpp).
     bool exclude_static = true;
 
+    // Rolling shutter (CMOS sensors read rows one after another; vibration bends the
+    // frame): auto estimates from the tracks how each frame's rows moved during readout
+    // and samples every output row at the frame's mid-exposure, only where such a wobble
+    // is found (rolling_shutter.hpp); off takes every frame as one instant.
+    RollingShutter rolling_shutter = RollingShutter::Auto;
+    // The sensor's readout time in ms, when known (0: unknown). Known, the skew of a
+    // moving camera is corrected too, and the correction is always applied (needs the
+    // frame rate: Stabilizer::setFrameInterval).
+    double readout_time = 0.0;
+
     // Motion is estimated on luma downscaled to this width (full size when smaller);
     // the motion is scaled back to full resolution.
     int analysis_width = 640;
@@ -132,6 +147,7 @@ struct StabilizerConfig {
 
 const char *toString(ModelChoice m);
 const char *toString(BorderMode b);
+const char *toString(RollingShutter r);
 const char *toString(PlannerKind p);
 
 } // namespace uavstab

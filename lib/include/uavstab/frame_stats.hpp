@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "uavstab/motion_model.hpp"
+#include "uavstab/rolling_shutter.hpp"
 #include "uavstab/similarity.hpp"
 
 namespace uavstab {
@@ -34,6 +35,9 @@ struct FrameStats {
     // The `points` tracks of this frame with their inlier flags (for debug overlays and
     // analysis; input-frame coordinates: map them with output_to_input.inverse()).
     std::vector<TrackedPoint> tracks;
+    // Rolling shutter: where the input's rows sat relative to its mid-exposure, as the
+    // warp undid it (empty: not bent; rolling_shutter.hpp). row_motion.wobble is the size.
+    RowMotion row_motion;
 };
 
 } // namespace uavstab

@@ -10,6 +10,7 @@
 #include "uavstab/frame_stats.hpp"
 #include "uavstab/hybrid_selector.hpp"
 #include "uavstab/motion_model.hpp"
+#include "uavstab/rolling_shutter.hpp"
 
 namespace uavstab {
 
@@ -32,6 +33,9 @@ struct MotionEstimate {
     // The surviving tracks in this frame (full-resolution centred coordinates), each
     // flagged when it is an inlier of the fit.
     std::vector<TrackedPoint> tracks;
+    // config.rolling_shutter: where this frame's rows sit relative to its mid-exposure
+    // (empty: nowhere else); `motion` is then the motion between mid-exposures.
+    RowMotion row_motion;
 };
 
 class ScreenFixedMap;
@@ -46,12 +50,18 @@ public:
     MotionEstimate estimate(const FrameView &frame);
     void reset();
     void setConfig(const StabilizerConfig &config);
+    // The time between frames in ms (0: unknown), for a known sensor readout time.
+    void setFrameInterval(double milliseconds);
 
 private:
+    RollingShutterEstimator::Settings rollingShutterSettings() const;
+
     StabilizerConfig config_;
     FeatureTracker tracker_;
     HybridModelSelector selector_;
     std::uint32_t frame_count_ = 0;
+    RollingShutterEstimator rolling_shutter_;
+    double frame_interval_ms_ = 0.0;
     // exclude_static: where screen-fixed tracks were seen. Kept across reset() (an overlay
     // outlives a scene cut), cleared when the option is switched off.
     std::unique_ptr<ScreenFixedMap> screen_fixed_;

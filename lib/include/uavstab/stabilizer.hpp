@@ -98,6 +98,9 @@ public:
     // reset() (threads). Throws std::invalid_argument for an invalid config.
     void setConfig(const StabilizerConfig &config);
     StabilizerConfig config() const;
+    // The time between frames in ms (0: unknown), which a known sensor readout time
+    // (config.readout_time) is measured against. Control thread; takes effect at once.
+    void setFrameInterval(double milliseconds);
 
     std::size_t heldCount() const;      // in the delay buffer
     std::size_t finalizedCount() const; // finalized, not yet popped
