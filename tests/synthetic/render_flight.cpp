@@ -3,10 +3,14 @@
 //
 //   uavstab-render-flight OUT.y4m [--width W] [--height H] [--frames N] [--fps F]
 //                         [--seed S] [--objects K] [--zoom A] [--profile lissajous|manoeuvre]
+//                         [--readout R] [--vibration-hz F] [--vibration-px A] [--vibration-deg A]
 //                         [--truth OUT.csv]
 // --profile manoeuvre: hover, accelerating pans, a yaw turn, stops, a climb (see
 // shaky_flight.hpp); --zoom then has no effect. The CSV holds the intended path beside the
-// true one.
+// true one (with --readout: the pose of each frame's middle row).
+// --readout: rolling shutter, share of the frame time the rows take to read (0 = global
+// shutter); --vibration-*: propeller vibration, frequency (Hz) and RMS per axis (px for x and
+// y, degrees for roll), e.g. --readout 0.8 --vibration-hz 47 --vibration-px 2 --vibration-deg 0.1.
 #include <cstdio>
 #include <cstdlib>
 #include <cmath>
@@ -47,6 +51,14 @@ int main(int argc, char **argv)
             options.moving_objects = std::atoi(value());
         else if (arg == "--zoom")
             options.zoom_amplitude = std::atof(value());
+        else if (arg == "--readout")
+            options.readout = std::atof(value());
+        else if (arg == "--vibration-hz")
+            options.vibration_hz = std::atof(value());
+        else if (arg == "--vibration-px")
+            options.vibration_px = std::atof(value());
+        else if (arg == "--vibration-deg")
+            options.vibration_deg = std::atof(value());
         else if (arg == "--profile") {
             const std::string p = value();
             if (p == "lissajous")
@@ -61,7 +73,8 @@ int main(int argc, char **argv)
             truth = value();
         else if (arg == "-h" || arg == "--help") {
             std::cout << "usage: uavstab-render-flight OUT.y4m [--width W] [--height H] [--frames N] [--fps F]"
-                         " [--seed S] [--objects K] [--zoom A] [--profile lissajous|manoeuvre] [--truth OUT.csv]\n";
+                         " [--seed S] [--objects K] [--zoom A] [--profile lissajous|manoeuvre]\n"
+                         "       [--readout R] [--vibration-hz F] [--vibration-px A] [--vibration-deg A] [--truth OUT.csv]\n";
             return 0;
         } else if (out.empty() && arg[0] != '-')
             out = arg;

@@ -1,6 +1,7 @@
 #include "shaky_flight.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -19,6 +20,10 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kBandWaves = 8;
+// Propeller vibration: a few sinusoids within +-2 % of the nominal frequency (the motors do
+// not turn at exactly the same speed), so that the vibration beats slowly as on a real UAV.
+constexpr int kVibrationWaves = 3;
+constexpr double kVibrationSpread = 0.02;
 // Share of the canvas the camera footprint spans at base altitude.
 constexpr double kFootprint = 0.62;
 
@@ -160,6 +165,28 @@ ShakyFlight::ShakyFlight(const FlightOptions &options)
     noise_y_ = make_noise(options_.noise_px);
     noise_angle_ = make_noise(radians(options_.rotation_noise_deg));
 
+    if (options_.vibration_hz > 0) {
+        // A generator of its own: the draws above and below (and so every flight without
+        // vibration) stay as they were.
+        std::seed_seq vibration_seed{options_.seed, 0x76696272u};
+        std::mt19937 vibration_rng(vibration_seed);
+        std::uniform_real_distribution<double> spread(1.0 - kVibrationSpread, 1.0 + kVibrationSpread);
+        auto make_vibration = [&](double rms) {
+            std::vector<Wave> waves;
+            if (rms <= 0)
+                return waves;
+            const double a = rms / std::sqrt(kVibrationWaves / 2.0);
+            for (int k = 0; k < kVibrationWaves; ++k) {
+                const double f = options_.vibration_hz * spread(vibration_rng);
+                waves.push_back({a, f, phase(vibration_rng)});
+            }
+            return waves;
+        };
+        vibration_x_ = make_vibration(options_.vibration_px);
+        vibration_y_ = make_vibration(options_.vibration_px);
+        vibration_angle_ = make_vibration(radians(options_.vibration_deg));
+    }
+
     if (options_.moving_objects > 0) {
         cv::Mat texture = cv::imread(std::string(UAVSTAB_DATA_DIR) + "/aero3.jpg", cv::IMREAD_COLOR);
         if (texture.empty())
@@ -179,10 +206,28 @@ ShakyFlight::ShakyFlight(const FlightOptions &options)
     }
 }
 
-double ShakyFlight::jitter(const std::vector<Wave> &band, const std::vector<double> &noise, int i) const
+double ShakyFlight::waves(const std::vector<Wave> &band, double t)
 {
-    const double t = i / options_.fps;
-    double v = noise.empty() ? 0.0 : noise[std::size_t(std::clamp(i, 0, int(noise.size()) - 1))];
+    double v = 0.0;
+    for (const Wave &w : band)
+        v += w.amplitude * std::sin(2 * kPi * w.frequency * t + w.phase);
+    return v;
+}
+
+double ShakyFlight::jitter(const std::vector<Wave> &band, const std::vector<double> &noise, double frame_time) const
+{
+    const double t = frame_time / options_.fps;
+    double v = 0.0;
+    if (!noise.empty()) {
+        // Linear between frames; at a whole frame time exactly that frame's draw (w = 0).
+        const double last = double(noise.size() - 1);
+        const double clamped = std::clamp(frame_time, 0.0, last);
+        const double before = std::floor(clamped);
+        const double w = clamped - before;
+        const std::size_t k = std::size_t(before);
+        const double a = noise[k], b = noise[std::min(k + 1, noise.size() - 1)];
+        v = a + w * (b - a);
+    }
     for (const Wave &w : band)
         v += w.amplitude * std::sin(2 * kPi * w.frequency * t + w.phase);
     return v;
@@ -207,10 +252,15 @@ Similarity ShakyFlight::manoeuvrePose(double t, double shrink) const
 
 Similarity ShakyFlight::intendedPose(int i) const
 {
+    return intendedPoseAt(double(i));
+}
+
+Similarity ShakyFlight::intendedPoseAt(double frame_time) const
+{
+    const double t = frame_time / options_.fps;
     if (options_.profile == FlightProfile::Manoeuvre)
-        return manoeuvrePose(i / options_.fps, manoeuvre_shrink_);
+        return manoeuvrePose(t, manoeuvre_shrink_);
     // A Lissajous pan whose speed peaks near pan_speed, a slow yaw, an optional slow zoom.
-    const double t = i / options_.fps;
     const double wx = path_amplitude_.x > 0 ? options_.pan_speed * options_.fps / path_amplitude_.x : 0.0;
     const double wy = path_amplitude_.y > 0 ? 0.7 * options_.pan_speed * options_.fps / path_amplitude_.y : 0.0;
     Similarity pose;
@@ -223,11 +273,37 @@ Similarity ShakyFlight::intendedPose(int i) const
 
 Similarity ShakyFlight::truePose(int i) const
 {
-    Similarity pose = intendedPose(i);
+    return truePoseAt(double(i));
+}
+
+Similarity ShakyFlight::truePoseAt(double frame_time) const
+{
+    Similarity pose = intendedPoseAt(frame_time);
     // Jitter is camera shake in the camera's own frame: offset in output pixels.
-    const Similarity shake{jitter(band_x_, noise_x_, i), jitter(band_y_, noise_y_, i),
-                           jitter(band_angle_, noise_angle_, i), 1.0};
+    Similarity shake{jitter(band_x_, noise_x_, frame_time), jitter(band_y_, noise_y_, frame_time),
+                     jitter(band_angle_, noise_angle_, frame_time), 1.0};
+    // Vibration likewise; only added when there is some, so that the poses without it are
+    // bit for bit what they were.
+    const double t = frame_time / options_.fps;
+    if (!vibration_x_.empty())
+        shake.dx += waves(vibration_x_, t);
+    if (!vibration_y_.empty())
+        shake.dy += waves(vibration_y_, t);
+    if (!vibration_angle_.empty())
+        shake.angle += waves(vibration_angle_, t);
     return pose * shake;
+}
+
+double ShakyFlight::rowTime(int i, double row) const
+{
+    if (options_.readout == 0)
+        return double(i);
+    return i + options_.readout * (row / (options_.height - 1) - 0.5);
+}
+
+Similarity ShakyFlight::truePoseAtRow(int i, double row) const
+{
+    return truePoseAt(rowTime(i, row));
 }
 
 Similarity ShakyFlight::trueMotion(int i) const
@@ -262,14 +338,30 @@ cv::Mat ShakyFlight::renderBgr(int i) const
     }
     // canvas = centre + base_scale * pose(p), p = output pixel - output centre.
     const Similarity world_to_canvas{canvas_centre.x, canvas_centre.y, 0.0, base_scale_};
-    const auto m = (world_to_canvas * truePose(i)).pixelMatrix(options_.width, options_.height);
-    // pixelMatrix adds the output centre back on both sides; undo it on the canvas side.
     const double cx = (options_.width - 1) * 0.5, cy = (options_.height - 1) * 0.5;
-    const double matrix[6] = {m[0], m[1], m[2] - cx, m[3], m[4], m[5] - cy};
+    auto canvas_from_output = [&](const Similarity &pose) {
+        const auto m = (world_to_canvas * pose).pixelMatrix(options_.width, options_.height);
+        // pixelMatrix adds the output centre back on both sides; undo it on the canvas side.
+        return std::array<double, 6>{m[0], m[1], m[2] - cx, m[3], m[4], m[5] - cy};
+    };
     cv::Mat out;
-    cv::warpAffine(scene, out, cv::Mat(2, 3, CV_64F, const_cast<double *>(matrix)),
-                   cv::Size(options_.width, options_.height), cv::INTER_CUBIC | cv::WARP_INVERSE_MAP,
-                   cv::BORDER_REFLECT_101);
+    if (options_.readout == 0) {
+        auto matrix = canvas_from_output(truePose(i));
+        cv::warpAffine(scene, out, cv::Mat(2, 3, CV_64F, matrix.data()), cv::Size(options_.width, options_.height),
+                       cv::INTER_CUBIC | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT_101);
+        return out;
+    }
+    // Rolling shutter: every row has its own pose, so one remap map row by row.
+    cv::Mat map_x(options_.height, options_.width, CV_32F), map_y(options_.height, options_.width, CV_32F);
+    for (int r = 0; r < options_.height; ++r) {
+        const auto m = canvas_from_output(truePoseAtRow(i, r));
+        float *mx = map_x.ptr<float>(r), *my = map_y.ptr<float>(r);
+        for (int c = 0; c < options_.width; ++c) {
+            mx[c] = float(m[0] * c + m[1] * r + m[2]);
+            my[c] = float(m[3] * c + m[4] * r + m[5]);
+        }
+    }
+    cv::remap(scene, out, map_x, map_y, cv::INTER_CUBIC, cv::BORDER_REFLECT_101);
     return out;
 }
 

@@ -4,6 +4,11 @@
 // independently moving foreground objects. Tests, the demo and the benchmark use it to
 // compare what the stabilizer did against the truth.
 //
+// Optionally a rolling shutter and propeller vibration (FlightOptions::readout, vibration_*):
+// the camera pose is then a continuous function of time and each image row is rendered with
+// the pose at the moment it was read, which bends the frame when the camera shakes fast
+// (jello). truePose(i) stays the pose of the middle row.
+//
 // Two intended paths (FlightOptions::profile):
 //   Lissajous  (default) a slow Lissajous pan, a slow yaw, an optional slow zoom.
 //   Manoeuvre  what a pilot flies: hover, a pan that accelerates at constant acceleration to
@@ -71,6 +76,19 @@ struct FlightOptions {
     double rotation_band_deg = 0.3;
 
     int moving_objects = 0;          // textured patches moving across the scene
+
+    // Rolling shutter: share of the frame time over which the rows are read, top to bottom
+    // (0 = global shutter; small-drone CMOS cameras: 0.5-0.9). Row r of frame i is read at
+    // frame time i + readout * (r / (height-1) - 0.5), so the middle row is read at frame i.
+    double readout = 0.0;
+    // Propeller vibration: sinusoids near vibration_hz (a slight spread, independent random
+    // phases for x, y and roll), RMS per axis in output px (x, y) and degrees (roll). Drawn
+    // from a generator of its own, so the other random draws do not depend on it. The room
+    // the intended path leaves for shake does not count it: the intended path is the same
+    // with and without vibration.
+    double vibration_hz = 0.0;
+    double vibration_px = 0.0;
+    double vibration_deg = 0.0;
 };
 
 std::string defaultCanvasPath();
@@ -83,10 +101,21 @@ public:
     int frameCount() const { return options_.frames; }
 
     // Camera pose of frame i: maps the frame's centred pixel coordinates to world
-    // coordinates (world units are output pixels at the flight's base altitude).
+    // coordinates (world units are output pixels at the flight's base altitude). With a
+    // rolling shutter: the pose of the middle row (truePoseAtRow(i, (height-1)/2)).
     Similarity truePose(int i) const;
+    // The camera pose at any time, in frames (frame_time = i is frame i's middle row): the
+    // intended path, the jitter's waves and the vibration evaluated at that time, the
+    // per-frame white noise linearly interpolated between frames (held before the first and
+    // after the last). truePoseAt(i) == truePose(i).
+    Similarity truePoseAt(double frame_time) const;
+    // The pose that row `row` (0 = top, height-1 = bottom) of frame i was read with.
+    Similarity truePoseAtRow(int i, double row) const;
+    // When row `row` of frame i was read, in frames.
+    double rowTime(int i, double row) const;
     // The same without jitter: the path a perfect stabilizer would follow.
     Similarity intendedPose(int i) const;
+    Similarity intendedPoseAt(double frame_time) const;
     // True motion in the stabilizer's convention: frame i -> frame i-1 coordinates.
     Similarity trueMotion(int i) const;
 
@@ -97,6 +126,8 @@ public:
     // Shrink applied to the manoeuvre's translations so that it fits the canvas (1 = none).
     double manoeuvreShrink() const { return manoeuvre_shrink_; }
 
+    // Frame i: with readout = 0 one warp with truePose(i); with a rolling shutter each row is
+    // sampled with its own pose (moving objects stay where they are at frame i).
     cv::Mat renderBgr(int i) const;
     FrameBuffer render(int i, int row_padding = 0) const;
 
@@ -109,7 +140,8 @@ private:
         cv::Point2d start;     // world
         cv::Point2d velocity;  // world px per frame
     };
-    double jitter(const std::vector<Wave> &band, const std::vector<double> &noise, int i) const;
+    double jitter(const std::vector<Wave> &band, const std::vector<double> &noise, double frame_time) const;
+    static double waves(const std::vector<Wave> &band, double t);
     Similarity manoeuvrePose(double t, double shrink) const;
 
     FlightOptions options_;
@@ -119,6 +151,7 @@ private:
     double path_phase_x_ = 0, path_phase_y_ = 0, rotation_phase_ = 0, zoom_phase_ = 0;
     std::vector<Wave> band_x_, band_y_, band_angle_;
     std::vector<double> noise_x_, noise_y_, noise_angle_;
+    std::vector<Wave> vibration_x_, vibration_y_, vibration_angle_;
     std::vector<MovingObject> objects_;
     double manoeuvre_shrink_ = 1.0;
 };

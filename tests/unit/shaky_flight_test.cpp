@@ -1,13 +1,18 @@
 // The synthetic flight generator: the default (Lissajous) profile is unchanged, and the
 // manoeuvre profile hovers where it should, reaches its speeds with piecewise constant
-// acceleration, and stays on the canvas with the default jitter.
+// acceleration, and stays on the canvas with the default jitter. Rolling shutter and
+// vibration: off, nothing changes; on, each row has its pose and the frames wobble.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "shaky_flight.hpp"
+#include "wobble_metric.hpp"
 
 using namespace uavstab;
 using namespace uavstab::synthetic;
@@ -173,4 +178,165 @@ TEST(ShakyFlight, ManoeuvreStaysOnTheCanvas)
                         f.manoeuvreShrink(), closest);
         }
     }
+}
+
+namespace {
+
+FlightOptions vibrating(double readout)
+{
+    FlightOptions o;
+    o.readout = readout;
+    o.vibration_hz = 47.0;
+    o.vibration_px = 2.0;
+    o.vibration_deg = 0.1;
+    return o;
+}
+
+cv::Mat luma(const cv::Mat &bgr)
+{
+    cv::Mat grey;
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+    return grey;
+}
+
+double meanWobbleOfFlight(const ShakyFlight &f, int frames)
+{
+    WobbleMeter meter;
+    for (int i = 0; i < frames; ++i)
+        meter.add(f.renderBgr(i));
+    EXPECT_EQ(meter.pairs(), frames - 1);
+    return meter.mean();
+}
+
+} // namespace
+
+// Without a rolling shutter or vibration the frames are the single warp they always were:
+// the canvas warped once with truePose(i), as renderBgr did before rows had poses.
+TEST(ShakyFlight, GlobalShutterRendersAsBefore)
+{
+    FlightOptions o;
+    o.frames = 30;
+    o.vibration_hz = 47.0;  // no amplitude: no vibration, nothing drawn
+    const ShakyFlight f(o);
+    const cv::Mat canvas = cv::imread(defaultCanvasPath(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(canvas.empty());
+    const double ccx = (canvas.cols - 1) * 0.5, ccy = (canvas.rows - 1) * 0.5;
+    const double cx = (o.width - 1) * 0.5, cy = (o.height - 1) * 0.5;
+    for (int i : {0, 13, 29}) {
+        const Similarity world_to_canvas{ccx, ccy, 0.0, f.worldToCanvas().scale};
+        const auto m = (world_to_canvas * f.truePose(i)).pixelMatrix(o.width, o.height);
+        double matrix[6] = {m[0], m[1], m[2] - cx, m[3], m[4], m[5] - cy};
+        cv::Mat expected;
+        cv::warpAffine(canvas, expected, cv::Mat(2, 3, CV_64F, matrix), cv::Size(o.width, o.height),
+                       cv::INTER_CUBIC | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT_101);
+        const cv::Mat rendered = f.renderBgr(i);
+        ASSERT_EQ(rendered.size(), expected.size());
+        EXPECT_EQ(cv::norm(rendered, expected, cv::NORM_INF), 0.0) << "frame " << i;
+    }
+    // The poses are those of a flight that never heard of vibration.
+    FlightOptions without;
+    without.frames = o.frames;
+    const ShakyFlight plain(without);
+    for (int i : {0, 13, 29}) {
+        const Similarity a = f.truePose(i), b = plain.truePose(i);
+        EXPECT_EQ(a.dx, b.dx);
+        EXPECT_EQ(a.dy, b.dy);
+        EXPECT_EQ(a.angle, b.angle);
+        EXPECT_EQ(a.scale, b.scale);
+    }
+}
+
+TEST(ShakyFlight, VibrationLeavesTheOtherDrawsAlone)
+{
+    const ShakyFlight plain{FlightOptions{}};
+    const ShakyFlight shaken(vibrating(0.0));
+    double largest = 0.0;
+    for (int i = 0; i < plain.frameCount(); ++i) {
+        const Similarity a = plain.intendedPose(i), b = shaken.intendedPose(i);
+        EXPECT_EQ(a.dx, b.dx);
+        EXPECT_EQ(a.dy, b.dy);
+        EXPECT_EQ(a.angle, b.angle);
+        // The shake differs by the vibration only: a few px, never more.
+        const Similarity d = plain.truePose(i).inverse() * shaken.truePose(i);
+        largest = std::max(largest, std::hypot(d.dx, d.dy));
+    }
+    EXPECT_GT(largest, 2.0);
+    EXPECT_LT(largest, 12.0);
+}
+
+TEST(ShakyFlight, RollingShutterGivesEachRowItsPose)
+{
+    const ShakyFlight f(vibrating(0.8));
+    const ShakyFlight global(vibrating(0.0));
+    const double middle = (f.options().height - 1) * 0.5, bottom = f.options().height - 1;
+    double top_offset = 0.0, bottom_offset = 0.0;
+    for (int i : {0, 1, 57, 150, 299}) {
+        const Similarity mid = f.truePoseAtRow(i, middle), pose = f.truePose(i);
+        EXPECT_EQ(mid.dx, pose.dx) << "frame " << i;
+        EXPECT_EQ(mid.dy, pose.dy) << "frame " << i;
+        EXPECT_EQ(mid.angle, pose.angle) << "frame " << i;
+        EXPECT_EQ(mid.scale, pose.scale) << "frame " << i;
+        // The readout moves the rows in time, not the camera's path.
+        const Similarity g = global.truePose(i);
+        EXPECT_EQ(pose.dx, g.dx);
+        EXPECT_EQ(pose.angle, g.angle);
+        EXPECT_DOUBLE_EQ(f.rowTime(i, 0), i - 0.4);
+        EXPECT_DOUBLE_EQ(f.rowTime(i, bottom), i + 0.4);
+        const Similarity top_pose = f.truePoseAtRow(i, 0), bottom_pose = f.truePoseAtRow(i, bottom);
+        top_offset = std::max(top_offset, std::hypot(top_pose.dx - pose.dx, top_pose.dy - pose.dy));
+        bottom_offset = std::max(bottom_offset, std::hypot(bottom_pose.dx - pose.dx, bottom_pose.dy - pose.dy));
+        // The pose is continuous in time, across frame boundaries too (the white noise is
+        // interpolated, not held).
+        for (double t : {i + 1e-7, i + 0.5, i + 1.0 - 1e-7}) {
+            const Similarity p = f.truePoseAt(t), q = f.truePoseAt(t + 1e-7);
+            EXPECT_LT(std::hypot(p.dx - q.dx, p.dy - q.dy), 1e-4) << "time " << t;
+        }
+    }
+    EXPECT_GT(top_offset, 1.0);
+    EXPECT_GT(bottom_offset, 1.0);
+    // Between frames the white noise is interpolated: halfway, half of each frame's draw.
+    FlightOptions quiet;
+    quiet.band_px = 0.0;
+    quiet.rotation_band_deg = 0.0;
+    const ShakyFlight noise_only(quiet);
+    const Similarity a = noise_only.intendedPoseAt(10.5).inverse() * noise_only.truePoseAt(10.5);
+    const Similarity b = noise_only.intendedPose(10).inverse() * noise_only.truePose(10);
+    const Similarity c = noise_only.intendedPose(11).inverse() * noise_only.truePose(11);
+    EXPECT_NEAR(a.angle, 0.5 * (b.angle + c.angle), 1e-12);
+}
+
+TEST(ShakyFlight, RollingShutterStaysOnTheCanvas)
+{
+    for (std::uint32_t seed : {1u, 2u, 3u}) {
+        FlightOptions o = vibrating(0.8);
+        o.seed = seed;
+        const ShakyFlight f(o);
+        const double cx = (f.canvasSize().width - 1) * 0.5, cy = (f.canvasSize().height - 1) * 0.5;
+        const double hx = (o.width - 1) * 0.5, hy = (o.height - 1) * 0.5;
+        double closest = 1e9;
+        for (int i = 0; i < f.frameCount(); ++i)
+            for (const Point2 c : {Point2{-hx, -hy}, Point2{hx, -hy}, Point2{-hx, hy}, Point2{hx, hy}}) {
+                const Point2 p = f.worldToCanvas().apply(f.truePoseAtRow(i, c.y + hy).apply(c));
+                closest = std::min({closest, cx - std::abs(p.x), cy - std::abs(p.y)});
+            }
+        EXPECT_GE(closest, 0.0) << "seed " << seed;
+    }
+}
+
+// The jello the rolling shutter makes of the vibration is what the wobble metric measures;
+// with a global shutter the same vibration only moves whole frames.
+TEST(ShakyFlight, RollingShutterWobbles)
+{
+    FlightOptions o = vibrating(0.8);
+    o.frames = 12;
+    const double rolling = meanWobbleOfFlight(ShakyFlight(o), o.frames);
+    o.readout = 0.0;
+    const double global = meanWobbleOfFlight(ShakyFlight(o), o.frames);
+    std::printf("wobble at 640x360, 47 Hz 2 px 0.1 deg: readout 0.8 %.3f px, global shutter %.3f px\n", rolling,
+                global);
+    EXPECT_GT(rolling, 0.5);
+    EXPECT_LT(global, 0.1);
+    // One frame pair, measured directly, agrees.
+    const ShakyFlight f(vibrating(0.8));
+    EXPECT_GT(wobble(luma(f.renderBgr(3)), luma(f.renderBgr(4))), 0.5);
 }
