@@ -1,6 +1,7 @@
 #include "bilinear_warp.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -85,6 +86,85 @@ struct LaneSteps {
     int half_pixels;   // pixels per 128-bit half: 8 / C
 };
 
+// The lanes' source offsets for a matrix: j * m * 1024 rounded as std::lround (halves away
+// from zero) for pixel j of the chunk. Spelt out rather than calling lround (a library call)
+// so that the loop vectorises: a matrix per row recomputes these on most rows. v - int(v) is
+// exact.
+inline void setOffsets(LaneSteps &steps, const double m[6])
+{
+    std::int16_t pixel_x[kChunk], pixel_y[kChunk];
+    for (int j = 0; j < kChunk; ++j) {
+        const double vx = j * m[0] * 1024.0, vy = j * m[3] * 1024.0;
+        const int ix = int(vx), iy = int(vy);
+        const double fx = vx - double(ix), fy = vy - double(iy);
+        pixel_x[j] = std::int16_t(ix + (fx >= 0.5) - (fx <= -0.5));
+        pixel_y[j] = std::int16_t(iy + (fy >= 0.5) - (fy <= -0.5));
+    }
+    const int channels = steps.vectors;
+    for (int v = 0; v < channels; ++v)
+        for (int l = 0; l < 16; ++l) {
+            const int j = v * (16 / channels) + l / channels;
+            steps.offset_x[v][l] = pixel_x[j];
+            steps.offset_y[v][l] = pixel_y[j];
+        }
+}
+
+LaneSteps laneSteps(const double m[6], int channels)
+{
+    LaneSteps steps{};
+    steps.vectors = channels;
+    steps.half_pixels = 8 / channels;
+    for (int l = 0; l < 16; ++l) {
+        steps.channel[l] = std::int16_t(l % channels);
+        steps.is_high_half[l] = std::int16_t(l >= 8);
+    }
+    setOffsets(steps, m);
+    return steps;
+}
+
+// Where the 8-bit kernels get each row's matrix and lane steps. One matrix for every row
+// (the single-transform warp: its steps computed once)...
+class OneMatrix {
+public:
+    OneMatrix(const double m[6], int channels) : m_(m), steps_(laneSteps(m, channels)) {}
+    const double *row(int) const { return m_; }
+    const LaneSteps &steps() const { return steps_; }
+
+private:
+    const double *m_;
+    LaneSteps steps_;
+};
+
+// ...or a matrix per row (rolling-shutter correction). The steps depend on m[0] and m[3]
+// only, which change slowly down a frame if at all: recomputed only when they change from
+// the previous row, so that a row costs little more than with one matrix.
+class MatrixPerRow {
+public:
+    // The first row's steps are ready, for the lane layout kernels read before their loop.
+    MatrixPerRow(const std::array<double, 6> *row_m, int row_begin, int channels)
+        : row_m_(row_m), row_begin_(row_begin), steps_(laneSteps(row_m[0].data(), channels)),
+          steps_m0_(row_m[0][0]), steps_m3_(row_m[0][3])
+    {
+    }
+    const double *row(int y)
+    {
+        const double *m = row_m_[y - row_begin_].data();
+        if (!(m[0] == steps_m0_ && m[3] == steps_m3_)) {
+            setOffsets(steps_, m);
+            steps_m0_ = m[0];
+            steps_m3_ = m[3];
+        }
+        return m;
+    }
+    const LaneSteps &steps() const { return steps_; }
+
+private:
+    const std::array<double, 6> *row_m_;
+    int row_begin_;
+    LaneSteps steps_;
+    double steps_m0_, steps_m3_;  // the matrix entries steps_ was computed for
+};
+
 #ifdef UAVSTAB_HAVE_X86
 
 __attribute__((target("avx2"))) inline __m256i load2(const std::uint8_t *lo, const std::uint8_t *hi)
@@ -103,30 +183,32 @@ __attribute__((target("avx2"))) inline __m256i interpolateRows(const std::uint8_
     return _mm256_add_epi16(t, _mm256_mulhrs_epi16(_mm256_sub_epi16(b, t), fy_scaled));
 }
 
+template <class Matrices>
 __attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
                                                   int dst_width, int row_begin, int row_end, int channels,
-                                                  const double m[6], bool replicate, const std::uint8_t border[4],
-                                                  const LaneSteps &steps)
+                                                  Matrices &matrices, bool replicate, const std::uint8_t border[4])
 {
-    const int H = steps.half_pixels;
-    const __m256i channel = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.channel));
-    const __m256i is_high = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.is_high_half));
+    // The lane layout (channel, half) is the same for every matrix.
+    const __m256i channel = _mm256_load_si256(reinterpret_cast<const __m256i *>(matrices.steps().channel));
+    const __m256i is_high = _mm256_load_si256(reinterpret_cast<const __m256i *>(matrices.steps().is_high_half));
     const __m256i frac_mask = _mm256_set1_epi16(kOne - 1);
     const __m256i one = _mm256_set1_epi16(kOne);
     const __m256i round = _mm256_set1_epi16(kOne / 2);
     const __m256i chans = _mm256_set1_epi16(std::int16_t(channels));
     const __m256i next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
-    const double last_x = m[0] * (kChunk - 1), last_y = m[3] * (kChunk - 1);
     const int row_bytes = src.width * channels;
-    const int last_window = steps.offset_x[steps.vectors - 1][H * channels];
-
-    auto scalar = [&](std::uint8_t *out, int x, int y, int count) {
-        for (int j = 0; j < count; ++j)
-            samplePixel(src, channels, m[0] * (x + j) + m[1] * y + m[2], m[3] * (x + j) + m[4] * y + m[5], replicate,
-                        border, out + (x + j) * channels);
-    };
 
     for (int y = row_begin; y < row_end; ++y) {
+        const double *m = matrices.row(y);
+        const LaneSteps &steps = matrices.steps();
+        const int H = steps.half_pixels;
+        const double last_x = m[0] * (kChunk - 1), last_y = m[3] * (kChunk - 1);
+        const int last_window = steps.offset_x[steps.vectors - 1][H * channels];
+        auto scalar = [&](std::uint8_t *out, int x, int count) {
+            for (int j = 0; j < count; ++j)
+                samplePixel(src, channels, m[0] * (x + j) + m[1] * y + m[2], m[3] * (x + j) + m[4] * y + m[5],
+                            replicate, border, out + (x + j) * channels);
+        };
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         int x = 0;
         for (; x + kChunk <= dst_width; x += kChunk) {
@@ -136,7 +218,7 @@ __attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uin
             // Every tap inside the frame (linear, so the chunk's ends bound it)...
             if (!(std::min(sx0, sx1) >= 0.0 && std::max(sx0, sx1) < src.width - 1 && std::min(sy0, sy1) >= 0.0 &&
                   std::max(sy0, sy1) < src.height - 1)) {
-                scalar(out, x, y, kChunk);
+                scalar(out, x, kChunk);
                 continue;
             }
             const int ix0 = int(sx0), iy0 = int(std::floor(sy0));
@@ -146,7 +228,7 @@ __attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uin
             // ...every window read inside its row, at most one row step in the chunk.
             if ((ix0 + ((frx + last_window) >> 10)) * channels + 16 > row_bytes || ky_max - ky_min > 1 ||
                 iy0 + ky_max + 1 >= src.height || iy0 + ky_min < 0) {
-                scalar(out, x, y, kChunk);
+                scalar(out, x, kChunk);
                 continue;
             }
             const std::uint8_t *row = src.data + std::size_t(iy0 + ky_min) * src.stride;
@@ -187,7 +269,7 @@ __attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uin
                                  _mm256_castsi256_si128(packed));
             }
         }
-        scalar(out, x, y, dst_width - x);
+        scalar(out, x, dst_width - x);
     }
 }
 
@@ -243,12 +325,14 @@ inline void samplePixels(const PlaneSpan &src, int channels, const double m[6], 
 // pixel v * 16 / C + l / C, channel l % C: taps at the integer part of its position, weights
 // the top 6 bits of the 1/1024 fraction, horizontal blend x64, vertical blend rounded as
 // pmulhrsw does ((d * fy * 2^9 + 2^14) >> 15), then (v + 32) >> 6.
+template <class Matrices>
 void warpRowsScalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
-                    int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4],
-                    const LaneSteps &steps)
+                    int row_end, int channels, Matrices &matrices, bool replicate, const std::uint8_t border[4])
 {
     const std::size_t stride = std::size_t(src.stride);
     for (int y = row_begin; y < row_end; ++y) {
+        const double *m = matrices.row(y);
+        const LaneSteps &steps = matrices.steps();
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         int x = 0;
         for (; x + kChunk <= dst_width; x += kChunk) {
@@ -328,9 +412,10 @@ UAVSTAB_TARGET_SIMD128 inline v_int16x8 interpolateRows128(const std::uint8_t *t
     return t + mulRoundShift15(b - t, fy_scaled);
 }
 
+template <class Matrices>
 UAVSTAB_TARGET_SIMD128 void warpRows128(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width,
-                                        int row_begin, int row_end, int channels, const double m[6], bool replicate,
-                                        const std::uint8_t border[4], const LaneSteps &steps)
+                                        int row_begin, int row_end, int channels, Matrices &matrices, bool replicate,
+                                        const std::uint8_t border[4])
 {
     const std::size_t stride = std::size_t(src.stride);
     const v_int16x8 frac_mask = cv::v_setall_s16(kOne - 1);
@@ -339,6 +424,8 @@ UAVSTAB_TARGET_SIMD128 void warpRows128(const PlaneSpan &src, std::uint8_t *dst,
     const v_int16x8 chans = cv::v_setall_s16(std::int16_t(channels));
     const v_int16x8 next_tap = cv::v_setall_s16(std::int16_t(channels << 8));
     for (int y = row_begin; y < row_end; ++y) {
+        const double *m = matrices.row(y);
+        const LaneSteps &steps = matrices.steps();
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         int x = 0;
         for (; x + kChunk <= dst_width; x += kChunk) {
@@ -410,9 +497,10 @@ inline void store16(std::uint8_t *p, std::uint16_t v)
     std::memcpy(p, &v, 2);
 }
 
-template <bool Swap>
+// matrixOf(y): row y's matrix.
+template <bool Swap, class MatrixOf>
 void warpRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin, int row_end,
-                const double m[6], bool replicate, std::uint16_t border)
+                MatrixOf matrixOf, bool replicate, std::uint16_t border)
 {
     const auto at = [&](long x, long y) { return load16<Swap>(src.data + y * src.stride + x * 2); };
     const auto tap = [&](long x, long y) -> double {
@@ -465,6 +553,7 @@ void warpRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst
         hi = std::min(hi, int(std::clamp(std::floor(x1) + 1.0, 0.0, double(dst_width))));
     };
     for (int y = row_begin; y < row_end; ++y) {
+        const double *m = matrixOf(y);
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         const double row_x = m[1] * y + m[2], row_y = m[4] * y + m[5];
         int lo = 0, hi = dst_width;
@@ -497,10 +586,22 @@ void warpRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst
 void warpPlaneBilinear16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                          int row_end, const double m[6], bool replicate, std::uint16_t border, bool swap)
 {
+    const auto matrixOf = [m](int) { return m; };
     if (swap)
-        warpRows16<true>(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
+        warpRows16<true>(src, dst, dst_stride, dst_width, row_begin, row_end, matrixOf, replicate, border);
     else
-        warpRows16<false>(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
+        warpRows16<false>(src, dst, dst_stride, dst_width, row_begin, row_end, matrixOf, replicate, border);
+}
+
+void warpPlaneBilinear16Rows(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                             int row_end, const std::array<double, 6> *row_m, bool replicate, std::uint16_t border,
+                             bool swap)
+{
+    const auto matrixOf = [row_m, row_begin](int y) { return row_m[y - row_begin].data(); };
+    if (swap)
+        warpRows16<true>(src, dst, dst_stride, dst_width, row_begin, row_end, matrixOf, replicate, border);
+    else
+        warpRows16<false>(src, dst, dst_stride, dst_width, row_begin, row_end, matrixOf, replicate, border);
 }
 
 bool warpKernelAvailable(WarpKernel kernel)
@@ -572,51 +673,81 @@ bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, 
                              warpKernel());
 }
 
-bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
-                       int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4],
-                       WarpKernel kernel)
+namespace {
+
+// Runs the kernel over rows [row_begin, row_end), every row's matrix already checked.
+template <class Matrices>
+bool runKernel(WarpKernel kernel, const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width,
+               int row_begin, int row_end, int channels, Matrices &matrices, bool replicate,
+               const std::uint8_t border[4])
 {
-    // Four-channel pixels fill a vector with only 4 pixels; measured no faster than
-    // OpenCV there, so only planar luma/chroma (1) and interleaved chroma (2) come here.
-    if (!warpKernelAvailable(kernel) || (channels != 1 && channels != 2))
-        return false;
-    // The window trick needs the source to advance forwards by at most 1.25 px per output
-    // pixel and to cross at most one source row per chunk.
-    if (!(m[0] > 0.0 && m[0] <= 1.25 && std::abs(m[3]) * (kChunk - 1) <= 0.9 && src.width >= kChunk + 2))
-        return false;
-    LaneSteps steps{};
-    steps.vectors = channels;
-    steps.half_pixels = 8 / channels;
-    for (int v = 0; v < channels; ++v)
-        for (int l = 0; l < 16; ++l) {
-            const int j = v * (16 / channels) + l / channels;
-            steps.offset_x[v][l] = std::int16_t(std::lround(j * m[0] * 1024.0));
-            steps.offset_y[v][l] = std::int16_t(std::lround(j * m[3] * 1024.0));
-        }
-    for (int l = 0; l < 16; ++l) {
-        steps.channel[l] = std::int16_t(l % channels);
-        steps.is_high_half[l] = std::int16_t(l >= 8);
-    }
     switch (kernel) {
     case WarpKernel::Avx2:
 #ifdef UAVSTAB_HAVE_X86
-        warpRowsAvx2(src, dst, dst_stride, dst_width, row_begin, row_end, channels, m, replicate, border, steps);
+        warpRowsAvx2(src, dst, dst_stride, dst_width, row_begin, row_end, channels, matrices, replicate, border);
         return true;
 #else
         return false;
 #endif
     case WarpKernel::Simd128:
 #ifdef UAVSTAB_HAVE_SIMD128
-        warpRows128(src, dst, dst_stride, dst_width, row_begin, row_end, channels, m, replicate, border, steps);
+        warpRows128(src, dst, dst_stride, dst_width, row_begin, row_end, channels, matrices, replicate, border);
         return true;
 #else
         return false;
 #endif
     case WarpKernel::Scalar:
-        warpRowsScalar(src, dst, dst_stride, dst_width, row_begin, row_end, channels, m, replicate, border, steps);
+        warpRowsScalar(src, dst, dst_stride, dst_width, row_begin, row_end, channels, matrices, replicate, border);
         return true;
     }
     return false;
+}
+
+} // namespace
+
+bool warpPlaneBilinearHandles(const PlaneSpan &src, int channels, const double m[6])
+{
+    // Four-channel pixels fill a vector with only 4 pixels; measured no faster than
+    // OpenCV there, so only planar luma/chroma (1) and interleaved chroma (2) come here.
+    // The window trick needs the source to advance forwards by at most 1.25 px per output
+    // pixel and to cross at most one source row per chunk.
+    return (channels == 1 || channels == 2) && m[0] > 0.0 && m[0] <= 1.25 &&
+           std::abs(m[3]) * (kChunk - 1) <= 0.9 && src.width >= kChunk + 2;
+}
+
+bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                       int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4],
+                       WarpKernel kernel)
+{
+    if (!warpKernelAvailable(kernel) || !warpPlaneBilinearHandles(src, channels, m))
+        return false;
+    OneMatrix matrices(m, channels);
+    return runKernel(kernel, src, dst, dst_stride, dst_width, row_begin, row_end, channels, matrices, replicate,
+                     border);
+}
+
+bool warpPlaneBilinearRows(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                           int row_end, int channels, const std::array<double, 6> *row_m, bool replicate,
+                           const std::uint8_t border[4])
+{
+    return warpPlaneBilinearRows(src, dst, dst_stride, dst_width, row_begin, row_end, channels, row_m, replicate,
+                                 border, warpKernel());
+}
+
+bool warpPlaneBilinearRows(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                           int row_end, int channels, const std::array<double, 6> *row_m, bool replicate,
+                           const std::uint8_t border[4], WarpKernel kernel)
+{
+    if (!warpKernelAvailable(kernel))
+        return false;
+    for (int y = row_begin; y < row_end; ++y)
+        if (!warpPlaneBilinearHandles(src, channels, row_m[y - row_begin].data()))
+            return false;
+    if (row_end <= row_begin)
+        return true;
+    MatrixPerRow matrices(row_m, row_begin, channels);
+    return runKernel(kernel, src, dst, dst_stride, dst_width, row_begin, row_end, channels, matrices, replicate,
+                     border);
 }
 
 } // namespace uavstab

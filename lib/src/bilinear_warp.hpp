@@ -12,8 +12,13 @@
 // SSE2 + SSSE3 on x86 without AVX2) and a scalar reference that spells out their integer
 // arithmetic (used where neither exists). So a given input warps to the same output on
 // every machine.
+//
+// Each kernel also takes a matrix per output row (rolling-shutter correction) in the same
+// pass: a row warped with its own matrix gets exactly the bytes the single-matrix warp
+// writes there.
 #pragma once
 
+#include <array>
 #include <cstdint>
 
 namespace uavstab {
@@ -46,6 +51,20 @@ bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, 
                        int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4],
                        WarpKernel kernel);
 
+// Whether warpPlaneBilinear handles this transform (given an available kernel).
+bool warpPlaneBilinearHandles(const PlaneSpan &src, int channels, const double m[6]);
+
+// A transform per destination row, in one pass (rolling-shutter correction): dst row y is
+// warped by row_m[y - row_begin] and gets the bytes warpPlaneBilinear writes there with
+// that matrix. Returns false, having written nothing, when any row's transform is not
+// handled (warpPlaneBilinearHandles).
+bool warpPlaneBilinearRows(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                           int row_end, int channels, const std::array<double, 6> *row_m, bool replicate,
+                           const std::uint8_t border[4]);
+bool warpPlaneBilinearRows(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                           int row_end, int channels, const std::array<double, 6> *row_m, bool replicate,
+                           const std::uint8_t border[4], WarpKernel kernel);
+
 // The same for one plane of 16-bit samples (one channel), at full depth: taps weighted in
 // double precision and the result rounded to the nearest integer, so that an integer
 // position reproduces its sample exactly and nothing is clipped or rescaled (a bilinear
@@ -54,5 +73,9 @@ bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, 
 // with `replicate`, the nearest edge sample. Handles every transform.
 void warpPlaneBilinear16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                          int row_end, const double m[6], bool replicate, std::uint16_t border, bool swap);
+// The same with a transform per destination row, row_m[y - row_begin] for row y.
+void warpPlaneBilinear16Rows(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                             int row_end, const std::array<double, 6> *row_m, bool replicate, std::uint16_t border,
+                             bool swap);
 
 } // namespace uavstab

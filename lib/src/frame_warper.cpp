@@ -1,9 +1,11 @@
 #include "uavstab/frame_warper.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+#include <vector>
 
 #include "bilinear_warp.hpp"
 #include "luma_extractor.hpp"
@@ -42,11 +44,54 @@ bool overlaps(const FrameView &a, const FrameView &b)
     return false;
 }
 
+// Rows [y0, y1) of plane p through one matrix, with OpenCV: the transforms the fast kernel
+// does not handle and the 3- and 4-channel formats.
+void warpGeneral(const FrameView &in, const FrameView &out, int p, int y0, int y1, const double plane_m[6],
+                 BorderMode border_mode, const cv::Scalar &black)
+{
+    // The stripe's first row is row y0 of the plane: shift the mapping.
+    double m[6];
+    std::copy(plane_m, plane_m + 6, m);
+    const cv::Mat src = planeMat(in, p);
+    cv::Mat dst = planeMat(out, p).rowRange(y0, y1);
+    m[2] += m[1] * y0;
+    m[5] += m[4] * y0;
+    const cv::Mat matrix(2, 3, CV_64F, m);
+    const int border = border_mode == BorderMode::Replicate ? cv::BORDER_REPLICATE : cv::BORDER_CONSTANT;
+    cv::warpAffine(src, dst, matrix, dst.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, border, black);
+}
+
+void checkFrames(const FrameView &in, const FrameView &out)
+{
+    if (!in.valid() || !out.valid() || !in.sameGeometry(out))
+        throw std::invalid_argument("FrameWarper: input and output must be valid frames of one geometry");
+    if (overlaps(in, out))
+        throw std::invalid_argument("FrameWarper: input and output overlap");
+}
+
+// Plane rows [y0, y1) under luma rows [row_begin, row_end): chroma rows follow the luma
+// rows they sit under, and the last stripe takes the plane's last row.
+void planeRows(const FrameView &in, int plane, int row_begin, int row_end, int &y0, int &y1)
+{
+    const PlaneLayout layout = planeLayout(in.format, plane);
+    y0 = row_begin / layout.subsample_y;
+    y1 = row_end == in.height ? in.planeHeight(plane) : row_end / layout.subsample_y;
+}
+
+std::array<std::uint8_t, 4> borderBytes(const cv::Scalar &black)
+{
+    return {std::uint8_t(black[0]), std::uint8_t(black[1]), std::uint8_t(black[2]), std::uint8_t(black[3])};
+}
+
 } // namespace
 
 void FrameWarper::planeMatrix(const FrameView &frame, int plane, const Similarity &output_to_input, double m[6])
 {
-    const auto l = output_to_input.pixelMatrix(frame.width, frame.height);
+    planeMatrix(frame, plane, output_to_input.pixelMatrix(frame.width, frame.height), m);
+}
+
+void FrameWarper::planeMatrix(const FrameView &frame, int plane, const std::array<double, 6> &l, double m[6])
+{
     const PlaneLayout layout = planeLayout(frame.format, plane);
     const double fx = layout.subsample_x, fy = layout.subsample_y;
     // Plane pixel c sits at luma position f*c + o, o = (f-1)/2. The plane transform is
@@ -68,24 +113,20 @@ void FrameWarper::warp(const FrameView &in, const FrameView &out, const Similari
 void FrameWarper::warpRows(const FrameView &in, const FrameView &out, const Similarity &output_to_input,
                            int row_begin, int row_end) const
 {
-    if (!in.valid() || !out.valid() || !in.sameGeometry(out))
-        throw std::invalid_argument("FrameWarper: input and output must be valid frames of one geometry");
-    if (overlaps(in, out))
-        throw std::invalid_argument("FrameWarper: input and output overlap");
+    checkFrames(in, out);
     row_begin = std::clamp(row_begin, 0, in.height);
     row_end = std::clamp(row_end, row_begin, in.height);
 
     for (int p = 0; p < in.planeCount(); ++p) {
         const PlaneLayout layout = planeLayout(in.format, p);
-        const int y0 = row_begin / layout.subsample_y;
-        const int y1 = row_end == in.height ? in.planeHeight(p) : row_end / layout.subsample_y;
+        int y0, y1;
+        planeRows(in, p, row_begin, row_end, y0, y1);
         if (y1 <= y0)
             continue;
         double m[6];
         planeMatrix(in, p, output_to_input, m);
         const cv::Scalar black = blackFor(in.format, p);
-        const std::uint8_t border_value[4] = {std::uint8_t(black[0]), std::uint8_t(black[1]), std::uint8_t(black[2]),
-                                              std::uint8_t(black[3])};
+        const std::array<std::uint8_t, 4> border_value = borderBytes(black);
         const PlaneSpan span{in.planes[p].data, in.planes[p].stride, in.planeWidth(p), in.planeHeight(p)};
         if (layout.bytes_per_sample == 2) {
             // 16-bit samples at full depth, in their own byte order (black is 0).
@@ -94,16 +135,71 @@ void FrameWarper::warpRows(const FrameView &in, const FrameView &out, const Simi
             continue;
         }
         if (warpPlaneBilinear(span, out.planes[p].data, out.planes[p].stride, out.planeWidth(p), y0, y1,
-                              layout.channels, m, border_ == BorderMode::Replicate, border_value))
+                              layout.channels, m, border_ == BorderMode::Replicate, border_value.data()))
             continue;
-        // General path. The stripe's first row is row y0 of the plane: shift the mapping.
-        const cv::Mat src = planeMat(in, p);
-        cv::Mat dst = planeMat(out, p).rowRange(y0, y1);
-        m[2] += m[1] * y0;
-        m[5] += m[4] * y0;
-        const cv::Mat matrix(2, 3, CV_64F, m);
-        const int border = border_ == BorderMode::Replicate ? cv::BORDER_REPLICATE : cv::BORDER_CONSTANT;
-        cv::warpAffine(src, dst, matrix, dst.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, border, black);
+        warpGeneral(in, out, p, y0, y1, m, border_, black);
+    }
+}
+
+void FrameWarper::warp(const FrameView &in, const FrameView &out, const RowTransforms &output_to_input) const
+{
+    warpRows(in, out, output_to_input, 0, in.height);
+}
+
+void FrameWarper::warpRows(const FrameView &in, const FrameView &out, const RowTransforms &output_to_input,
+                           int row_begin, int row_end) const
+{
+    if (output_to_input.isConstant()) {
+        warpRows(in, out, output_to_input.first(), row_begin, row_end);
+        return;
+    }
+    checkFrames(in, out);
+    row_begin = std::clamp(row_begin, 0, in.height);
+    row_end = std::clamp(row_end, row_begin, in.height);
+
+    const RowMatrices luma(output_to_input, in.width, in.height);
+    std::vector<std::array<double, 6>> rows;  // plane row y0 + i's matrix
+    for (int p = 0; p < in.planeCount(); ++p) {
+        const PlaneLayout layout = planeLayout(in.format, p);
+        int y0, y1;
+        planeRows(in, p, row_begin, row_end, y0, y1);
+        if (y1 <= y0)
+            continue;
+        // Plane row c sits under luma row f*c + (f-1)/2 (as in planeMatrix).
+        const double offset_y = (layout.subsample_y - 1) * 0.5;
+        rows.resize(std::size_t(y1 - y0));
+        for (int y = y0; y < y1; ++y)
+            planeMatrix(in, p, luma.at(layout.subsample_y * y + offset_y), rows[std::size_t(y - y0)].data());
+        const cv::Scalar black = blackFor(in.format, p);
+        const std::array<std::uint8_t, 4> border_value = borderBytes(black);
+        const bool replicate = border_ == BorderMode::Replicate;
+        const PlaneSpan span{in.planes[p].data, in.planes[p].stride, in.planeWidth(p), in.planeHeight(p)};
+        std::uint8_t *dst = out.planes[p].data;
+        const int dst_stride = out.planes[p].stride, dst_width = out.planeWidth(p);
+        if (layout.bytes_per_sample == 2) {
+            warpPlaneBilinear16Rows(span, dst, dst_stride, dst_width, y0, y1, rows.data(), replicate, 0,
+                                    needsByteSwap(in.format));
+            continue;
+        }
+        // Each row as the single-transform warp would draw it with its matrix: runs of rows
+        // the fast kernel handles in one call; the rest (large rotations or zooms, 3- and
+        // 4-channel pixels) through OpenCV, one call per run of equal matrices.
+        const auto matrix = [&](int y) -> const std::array<double, 6> & { return rows[std::size_t(y - y0)]; };
+        const auto handled = [&](int y) { return warpPlaneBilinearHandles(span, layout.channels, matrix(y).data()); };
+        for (int y = y0; y < y1;) {
+            int end = y + 1;
+            if (handled(y)) {
+                while (end < y1 && handled(end))
+                    ++end;
+                warpPlaneBilinearRows(span, dst, dst_stride, dst_width, y, end, layout.channels,
+                                      &rows[std::size_t(y - y0)], replicate, border_value.data());
+            } else {
+                while (end < y1 && matrix(end) == matrix(y) && !handled(end))
+                    ++end;
+                warpGeneral(in, out, p, y, end, matrix(y).data(), border_, black);
+            }
+            y = end;
+        }
     }
 }
 

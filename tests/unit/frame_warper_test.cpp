@@ -305,3 +305,249 @@ TEST(WarpKernels, FrameWarperUsesTheChosenKernel)
             ASSERT_EQ(0, std::memcmp(out.row(p, y), direct.row(p, y), std::size_t(w * c))) << "plane " << p << " row " << y;
     }
 }
+
+// Transforms per output row (rolling-shutter correction).
+
+#include "luma_extractor.hpp"  // needsByteSwap
+#include "uavstab/row_transforms.hpp"
+
+namespace {
+
+const PixelFormat kAllFormatsAnd16Bit[] = {PixelFormat::Gray8, PixelFormat::I420,     PixelFormat::YV12,
+                                           PixelFormat::NV12,  PixelFormat::NV21,     PixelFormat::RGB,
+                                           PixelFormat::BGR,   PixelFormat::RGBA,     PixelFormat::BGRA,
+                                           PixelFormat::RGBx,  PixelFormat::BGRx,     PixelFormat::Gray16LE,
+                                           PixelFormat::Gray16BE};
+
+// What a rolling shutter asks for: translation varying by +-3 px, rotation by +-0.2 degree
+// and scale by +-0.5 % down the frame (rows 0 and height - 1 are the extremes, one more
+// anchor in between), about `base`.
+RowTransforms shutterWobble(const Similarity &base, int height)
+{
+    const double deg = 3.14159265358979 / 180.0;
+    const auto at = [&](double k) {
+        return Similarity{base.dx + 3.0 * k, base.dy - 3.0 * k, base.angle + 0.2 * deg * k, base.scale * (1.0 + 0.005 * k)};
+    };
+    return RowTransforms({0.0, 0.4 * (height - 1), double(height - 1)}, {at(-1.0), at(0.3), at(1.0)});
+}
+
+void expectSameFrames(const FrameBuffer &a, const FrameBuffer &b, const std::string &what)
+{
+    const FrameView &v = a.view();
+    for (int p = 0; p < v.planeCount(); ++p)
+        for (int y = 0; y < v.planeHeight(p); ++y)
+            ASSERT_EQ(0, std::memcmp(a.row(p, y), b.row(p, y), std::size_t(v.planeRowBytes(p))))
+                << what << " plane " << p << " row " << y;
+}
+
+// Every plane row's matrix for rows [y0, y1) of plane `plane`, as FrameWarper computes them.
+std::vector<std::array<double, 6>> planeRowMatrices(const FrameView &v, int plane, const RowTransforms &rows, int y0,
+                                                    int y1)
+{
+    const RowMatrices luma(rows, v.width, v.height);
+    const int f = planeLayout(v.format, plane).subsample_y;
+    std::vector<std::array<double, 6>> m(std::size_t(std::max(0, y1 - y0)));
+    for (int y = y0; y < y1; ++y)
+        FrameWarper::planeMatrix(v, plane, luma.at(f * y + (f - 1) * 0.5), m[std::size_t(y - y0)].data());
+    return m;
+}
+
+} // namespace
+
+TEST(RowTransforms, InterpolatesBetweenAnchorsAndHoldsBeyond)
+{
+    const Similarity a{1.0, -2.0, 0.01, 1.0}, b{5.0, 2.0, -0.01, 1.02};
+    const RowTransforms rows({10.0, 30.0}, {a, b});
+    EXPECT_FALSE(rows.isConstant());
+    const RowMatrices m(rows, 64, 48);
+    const auto ma = a.pixelMatrix(64, 48), mb = b.pixelMatrix(64, 48);
+    EXPECT_EQ(ma, m.at(-5.0));
+    EXPECT_EQ(ma, m.at(10.0));
+    EXPECT_EQ(mb, m.at(30.0));
+    EXPECT_EQ(mb, m.at(100.0));
+    const auto mid = m.at(25.0);
+    for (int k = 0; k < 6; ++k)
+        EXPECT_NEAR(mid[k], 0.25 * ma[k] + 0.75 * mb[k], 1e-12) << k;
+    // No anchor: the identity; one, or all equal: constant.
+    EXPECT_EQ(Similarity::identity().pixelMatrix(64, 48), RowMatrices(RowTransforms({}, {}), 64, 48).at(7.0));
+    EXPECT_TRUE(RowTransforms(a).isConstant());
+    EXPECT_TRUE(RowTransforms({0.0, 5.0}, {a, a}).isConstant());
+    EXPECT_THROW(RowTransforms({0.0, 5.0}, {a}), std::invalid_argument);
+    EXPECT_THROW(RowTransforms({5.0, 5.0}, {a, b}), std::invalid_argument);
+    EXPECT_THROW(RowTransforms({0.0, std::nan("")}, {a, b}), std::invalid_argument);
+}
+
+TEST(FrameWarperPerRow, EqualRowTransformsWriteTheSingleTransformsBytes)
+{
+    // Anchors whose transforms are equal over the whole frame but not before it: the
+    // per-row path (not the constant shortcut) with every row's matrix the single one.
+    // Mappings the fast kernel takes and one it does not (a large rotation: OpenCV).
+    const Similarity mappings[] = {{1.3, -2.7, 0.02, 0.97}, {-6.0, 4.0, 0.0, 1.0}, {2.0, 1.0, 0.4, 1.1}};
+    for (PixelFormat format : kAllFormatsAnd16Bit)
+        for (const auto &size : {std::pair<int, int>{67, 41}, std::pair<int, int>{203, 119}})
+            for (const Similarity &s : mappings) {
+                const int w = size.first, h = size.second;
+                const FrameBuffer in = noiseFrame(format, w, h, 9, 3);
+                FrameBuffer single(format, w, h, 1), per_row(format, w, h, 1);
+                const RowTransforms rows({-20.0, -1.0, 30.0}, {Similarity{9.0, 9.0, 0.1, 1.3}, s, s});
+                ASSERT_FALSE(rows.isConstant());
+                FrameWarper().warp(in.view(), single.view(), s);
+                FrameWarper().warp(in.view(), per_row.view(), rows);
+                expectSameFrames(single, per_row, std::string(toString(format)) + " " + std::to_string(w));
+            }
+}
+
+TEST(WarpKernels, PerRowTransformsWriteTheSameBytesInEveryKernel)
+{
+    // Genuinely varying rows (translation, rotation and scale changing down the frame, so
+    // the lane steps change too) through every kernel: the scalar reference's bytes, and
+    // row by row the bytes of the single-transform warp with that row's matrix.
+    std::mt19937 rng(20260421);
+    const auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+    int compared = 0;
+    for (int trial = 0; trial < 60; ++trial) {
+        const PixelFormat format = trial % 3 == 0 ? PixelFormat::Gray8 : PixelFormat::NV12;
+        const int w = 150 + int(rng() % 120), h = 60 + int(rng() % 80);
+        const FrameBuffer in = noiseFrame(format, w, h, unsigned(trial), int(rng() % 9));
+        const FrameView &v = in.view();
+        const Similarity base{uniform(-8, 8), uniform(-8, 8), uniform(-0.03, 0.03), uniform(0.93, 1.05)};
+        const RowTransforms rows = shutterWobble(base, h);
+        for (int p = 0; p < v.planeCount(); ++p) {
+            const int channels = planeLayout(format, p).channels;
+            const int pw = v.planeWidth(p), ph = v.planeHeight(p);
+            const int y0 = trial % 4 == 0 ? int(rng() % unsigned(ph)) : 0, y1 = trial % 4 == 0 ? ph - 3 : ph;
+            const auto m = planeRowMatrices(v, p, rows, y0, y1);
+            const PlaneSpan span{v.planes[p].data, v.planes[p].stride, pw, ph};
+            const bool replicate = trial % 2;
+            const std::uint8_t border[4] = {16, 128, 128, 255};
+            const int stride = pw * channels + 5;
+            std::vector<std::uint8_t> reference(std::size_t(stride) * ph, 0xa5);
+            ASSERT_TRUE(warpPlaneBilinearRows(span, reference.data(), stride, pw, y0, y1, channels, m.data(),
+                                              replicate, border, WarpKernel::Scalar));
+            // Row by row, the single-transform warp with the row's matrix.
+            std::vector<std::uint8_t> single(reference.size(), 0xa5);
+            for (int y = y0; y < y1; ++y)
+                ASSERT_TRUE(warpPlaneBilinear(span, single.data(), stride, pw, y, y + 1, channels,
+                                              m[std::size_t(y - y0)].data(), replicate, border, WarpKernel::Scalar));
+            ASSERT_TRUE(single == reference) << "trial " << trial << " plane " << p;
+            for (WarpKernel kernel : kWarpKernels) {
+                if (!warpKernelAvailable(kernel))
+                    continue;
+                std::vector<std::uint8_t> out(reference.size(), 0xa5);
+                ASSERT_TRUE(warpPlaneBilinearRows(span, out.data(), stride, pw, y0, y1, channels, m.data(), replicate,
+                                                  border, kernel));
+                const auto diff = std::mismatch(out.begin(), out.end(), reference.begin());
+                ASSERT_TRUE(diff.first == out.end())
+                    << warpKernelName(kernel) << " differs from scalar in trial " << trial << " plane " << p
+                    << " at row " << (diff.first - out.begin()) / stride << " byte "
+                    << (diff.first - out.begin()) % stride;
+                ++compared;
+            }
+        }
+    }
+    std::printf("%d per-row warps identical to the scalar reference\n", compared);
+    // A row the fast kernels do not handle: nothing written, the caller takes it.
+    const FrameBuffer in = noiseFrame(PixelFormat::Gray8, 64, 32, 1);
+    std::vector<std::array<double, 6>> m(32, {1.0, 0.0, 0.0, 0.0, 1.0, 0.0});
+    m[17] = {0.9, -0.4, 0.0, 0.4, 0.9, 0.0};
+    std::vector<std::uint8_t> out(64 * 32, 0xa5);
+    const std::uint8_t border[4] = {};
+    EXPECT_FALSE(warpPlaneBilinearRows({in.view().planes[0].data, in.view().planes[0].stride, 64, 32}, out.data(), 64,
+                                       64, 0, 32, 1, m.data(), false, border));
+    EXPECT_TRUE(std::all_of(out.begin(), out.end(), [](std::uint8_t b) { return b == 0xa5; }));
+}
+
+TEST(WarpKernels, PerRowTransformsAtSixteenBitsWriteTheSingleTransformsRows)
+{
+    for (PixelFormat format : {PixelFormat::Gray16LE, PixelFormat::Gray16BE})
+        for (int trial = 0; trial < 6; ++trial) {
+            const int w = 97 + 13 * trial, h = 51 + 7 * trial;
+            const FrameBuffer in = noiseFrame(format, w, h, unsigned(trial), trial);
+            const FrameView &v = in.view();
+            const RowTransforms rows = shutterWobble({1.5 * trial - 4.0, 2.0 - trial, 0.01 * (trial - 3), 0.98}, h);
+            const auto m = planeRowMatrices(v, 0, rows, 0, h);
+            const PlaneSpan span{v.planes[0].data, v.planes[0].stride, w, h};
+            const bool swap = needsByteSwap(format), replicate = trial % 2 == 1;
+            std::vector<std::uint8_t> per_row(std::size_t(w) * 2 * h), single(per_row.size());
+            warpPlaneBilinear16Rows(span, per_row.data(), w * 2, w, 0, h, m.data(), replicate, 7, swap);
+            for (int y = 0; y < h; ++y)
+                warpPlaneBilinear16(span, single.data(), w * 2, w, y, y + 1, m[std::size_t(y)].data(), replicate, 7,
+                                    swap);
+            ASSERT_TRUE(per_row == single) << toString(format) << " trial " << trial;
+        }
+}
+
+TEST(FrameWarperPerRow, ShearMovesEachRowByItsOwnAmount)
+{
+    // dx(y) = y (anchors 0 and 64: the interpolation weights are exact in binary), so row y
+    // of the output is row y of the input moved left by exactly y pixels: whole pixels, so
+    // the bilinear taps give the input bytes exactly. Luma planes through the fast kernel,
+    // 16-bit samples and 4-channel pixels through OpenCV, a call per row.
+    const int w = 160, h = 64;
+    for (PixelFormat format :
+         {PixelFormat::Gray8, PixelFormat::I420, PixelFormat::NV12, PixelFormat::Gray16LE, PixelFormat::BGRx}) {
+        const FrameBuffer in = noiseFrame(format, w, h, 4, 2);
+        FrameBuffer out(format, w, h);
+        const RowTransforms shear({0.0, 64.0}, {Similarity{0.0, 0.0, 0.0, 1.0}, Similarity{64.0, 0.0, 0.0, 1.0}});
+        FrameWarper().warp(in.view(), out.view(), shear);
+        const int bytes = planeLayout(format, 0).bytes_per_sample * planeLayout(format, 0).channels;
+        int checked = 0;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x + y < w; ++x) {
+                ASSERT_EQ(0, std::memcmp(out.row(0, y) + x * bytes, in.row(0, y) + (x + y) * bytes, std::size_t(bytes)))
+                    << toString(format) << " at " << x << "," << y;
+                ++checked;
+            }
+        EXPECT_GT(checked, w * h / 2);
+    }
+}
+
+TEST(FrameWarperPerRow, RowsOnEitherSideOfAStepGetTheirSingleTransformsBytes)
+{
+    // Transform a down to luma row 40 and b from row 41 on (the interpolation between equal
+    // anchors is exact): those rows are the single-transform warps' rows. b is a rotation
+    // the fast kernel does not take, so OpenCV draws the lower rows.
+    const Similarity a{1.3, -2.7, 0.02, 0.97}, b{-2.0, 3.0, 0.4, 1.05};
+    const RowTransforms step({0.0, 40.0, 41.0, 95.0}, {a, a, b, b});
+    for (PixelFormat format : kAllFormatsAnd16Bit) {
+        const int w = 131, h = 96;
+        const FrameBuffer in = noiseFrame(format, w, h, 12, 4);
+        FrameBuffer per_row(format, w, h), single_a(format, w, h), single_b(format, w, h);
+        FrameWarper().warp(in.view(), per_row.view(), step);
+        FrameWarper().warp(in.view(), single_a.view(), a);
+        FrameWarper().warp(in.view(), single_b.view(), b);
+        const FrameView &v = in.view();
+        for (int p = 0; p < v.planeCount(); ++p) {
+            const int f = planeLayout(format, p).subsample_y;
+            for (int y = 0; y < v.planeHeight(p); ++y) {
+                const double luma_row = f * y + (f - 1) * 0.5;
+                if (luma_row > 40.0 && luma_row < 41.0)
+                    continue;  // interpolated: neither
+                const FrameBuffer &expected = luma_row <= 40.0 ? single_a : single_b;
+                ASSERT_EQ(0, std::memcmp(per_row.row(p, y), expected.row(p, y), std::size_t(v.planeRowBytes(p))))
+                    << toString(format) << " plane " << p << " row " << y;
+            }
+        }
+    }
+}
+
+TEST(FrameWarperPerRow, StripesTogetherEqualTheWholeFrame)
+{
+    // Stripe edges at odd rows too; rotation growing down the frame past what the fast
+    // kernel takes, so that fast and OpenCV rows alternate within a plane.
+    for (PixelFormat format : {PixelFormat::NV12, PixelFormat::I420, PixelFormat::BGRx, PixelFormat::Gray16BE}) {
+        const int w = 128, h = 96;
+        const FrameBuffer in = noiseFrame(format, w, h, 3);
+        for (const RowTransforms &rows :
+             {shutterWobble({1.3, -2.7, 0.02, 0.97}, h),
+              RowTransforms({0.0, 50.0, 95.0}, {Similarity{1.0, 2.0, 0.0, 1.0}, Similarity{-2.0, 1.0, 0.15, 1.0},
+                                                Similarity{0.0, 0.0, -0.01, 1.01}})}) {
+            FrameBuffer whole(format, w, h), striped(format, w, h);
+            FrameWarper().warp(in.view(), whole.view(), rows);
+            const int edges[] = {0, 30, 37, 64, 96};
+            for (int i = 0; i + 1 < 5; ++i)
+                FrameWarper().warpRows(in.view(), striped.view(), rows, edges[i], edges[i + 1]);
+            expectSameFrames(whole, striped, std::string(toString(format)));
+        }
+    }
+}
