@@ -11,6 +11,7 @@ namespace {
 
 constexpr int kUnknownsPerBand = 3;  // shift x, shift y, turn (px at half the width)
 constexpr int kRounds = 3;           // reweighting rounds of the robust fit
+constexpr double kTukeyScale = 2.0;  // Tukey's weight falls to zero at this many times `robust`
 
 struct Bands {
     int count;
@@ -92,13 +93,12 @@ void RollingShutterEstimator::setSettings(const Settings &settings)
 void RollingShutterEstimator::reset()
 {
     offsets_.clear();
-    applied_.clear();
     level_ = 0.0;
     frames_ = 0;
 }
 
 RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous, const std::vector<Point2> &current,
-                                            MotionModel model, Similarity &motion, int width, int height)
+                                            const Similarity &motion, int width, int height)
 {
     const int band_count = std::clamp(settings_.bands, 1, std::max(1, height / 8));
     const Bands bands = bandsFor(height, band_count);
@@ -108,10 +108,8 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
         width_ = width;
         height_ = height;
     }
-    if (offsets_.empty()) {
+    if (offsets_.empty())
         offsets_.assign(unknowns, 0.0);
-        applied_.assign(unknowns, 0.0);
-    }
     const double half_width = 0.5 * width;
     const double px640 = double(width) / 640.0;
     const std::size_t n = std::min(previous.size(), current.size());
@@ -129,10 +127,10 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     // negated), by robust weighted least squares.
     Eigen::VectorXd z = Eigen::VectorXd::Zero(Eigen::Index(unknowns));
     std::vector<double> robust_weight(n, 1.0);
-    double residual_rms = 0.0;
+    double difference_rms = 0.0;
     if (enough) {
         std::vector<double> w;
-        const double huber = settings_.robust * px640;
+        const double outlier = settings_.robust * px640;
         for (int round = 0; round < kRounds; ++round) {
             Eigen::MatrixXd a = Eigen::MatrixXd::Zero(Eigen::Index(unknowns), Eigen::Index(unknowns));
             Eigen::VectorXd rhs = Eigen::VectorXd::Zero(Eigen::Index(unknowns));
@@ -179,16 +177,23 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
                     }
                 }
             z = a.ldlt().solve(rhs);
-            // Reweight by each track's distance from the band model (Huber).
-            double sum2 = 0.0;
+            // Reweight by each track's distance from the band model: Tukey's biweight, so
+            // that tracks the bands cannot explain (an overlay, a moving object) drop out.
             const std::vector<double> band_motion(z.data(), z.data() + z.size());
+            double sx = 0.0, sy = 0.0, sxx = 0.0, sum = 0.0;
             for (std::size_t i = 0; i < n; ++i) {
                 const Point2 model_i = offsetAt(band_motion, bands, half_width, current[i]);
                 const double r = std::hypot(residual[i].x - model_i.x, residual[i].y - model_i.y);
-                robust_weight[i] = r <= huber ? 1.0 : huber / r;
-                sum2 += robust_weight[i] * (model_i.x * model_i.x + model_i.y * model_i.y);
+                const double u = r / (kTukeyScale * outlier);
+                robust_weight[i] = u < 1.0 ? (1.0 - u * u) * (1.0 - u * u) : 0.0;
+                sx += model_i.x;
+                sy += model_i.y;
+                sxx += model_i.x * model_i.x + model_i.y * model_i.y;
+                sum += 1.0;
             }
-            residual_rms = std::sqrt(sum2 / std::max(1.0, weight_sum));
+            // The size of the bands' motion, less what they share (a shift the frame fit
+            // left over is no wobble).
+            difference_rms = std::sqrt(std::max(0.0, sxx / sum - (sx * sx + sy * sy) / (sum * sum)));
         }
     }
 
@@ -218,7 +223,7 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     // in proportion to how far the bands' residual motion stands above the threshold.
     ++frames_;
     const double alpha = 1.0 / double(std::min(frames_, std::max(1, settings_.settle)));
-    level_ += alpha * (residual_rms / px640 - level_);
+    level_ += alpha * (difference_rms / px640 - level_);
     double gain = 1.0;
     if (settings_.automatic && settings_.readout <= 0.0)
         gain = std::clamp((level_ - settings_.threshold) / std::max(1e-9, settings_.threshold), 0.0, 1.0);
@@ -252,24 +257,7 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
             sum2 += x * x + y * y;
         }
         result.wobble = std::sqrt(sum2 / band_count);
-
-        // The motion between the two mid-exposure images: the fit again, with each track put
-        // where a global shutter would have seen it in both frames.
-        if (enough) {
-            std::vector<Point2> from(n), to(n);
-            std::vector<std::uint8_t> use(n);
-            for (std::size_t i = 0; i < n; ++i) {
-                const Point2 oc = offsetAt(applied, bands, half_width, current[i]);
-                const Point2 op = offsetAt(applied_, bands, half_width, previous[i]);
-                from[i] = {current[i].x - oc.x, current[i].y - oc.y};
-                to[i] = {previous[i].x - op.x, previous[i].y - op.y};
-                use[i] = robust_weight[i] >= 0.999;
-            }
-            if (std::count(use.begin(), use.end(), 1) >= 4)
-                motion = fitLeastSquares(model, from, to, &use);
-        }
     }
-    applied_ = applied;
     return result;
 }
 

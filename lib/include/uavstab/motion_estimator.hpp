@@ -55,12 +55,15 @@ public:
 
 private:
     RollingShutterEstimator::Settings rollingShutterSettings() const;
+    StabilizerConfig trackerConfig() const;
 
     StabilizerConfig config_;
     FeatureTracker tracker_;
     HybridModelSelector selector_;
     std::uint32_t frame_count_ = 0;
     RollingShutterEstimator rolling_shutter_;
+    RowMotion last_rows_;  // the previous frame's
+    bool wide_detection_ = false;  // corners over the whole height (a wobble is corrected)
     double frame_interval_ms_ = 0.0;
     // exclude_static: where screen-fixed tracks were seen. Kept across reset() (an overlay
     // outlives a scene cut), cleared when the option is switched off.

@@ -20,7 +20,6 @@
 
 #include <vector>
 
-#include "uavstab/motion_model.hpp"
 #include "uavstab/similarity.hpp"
 
 namespace uavstab {
@@ -39,6 +38,8 @@ struct RowMotion {
     // The offset at centred row y, linearly interpolated between band centres (held
     // beyond the first and last).
     Similarity at(double y) const;
+    // Where the mid-exposure image has the point this frame captured at p.
+    Point2 toMidExposure(Point2 p) const { return empty() ? p : at(p.y).inverse().apply(p); }
 };
 
 class RollingShutterEstimator {
@@ -61,7 +62,8 @@ public:
         // motion, per tracked point (px^2 per px^2).
         double band_smoothness = 0.02;
         double band_ridge = 0.002;
-        // Residuals (px at 640 px of width) beyond which a track's weight falls (Huber).
+        // Tracks off their bands' motion by twice this (px at 640 px of width) no longer
+        // count (Tukey's biweight): an overlay or a moving object is not a shutter.
         double robust = 1.5;
     };
 
@@ -69,11 +71,12 @@ public:
     RollingShutterEstimator() : RollingShutterEstimator(Settings{}) {}
 
     // One frame: the tracks' positions in the previous frame and this one (centred,
-    // full resolution), and the fitted motion (this frame -> previous). Returns this frame's
-    // row offsets (empty when no wobble is found or too few tracks) and may refine `motion`
-    // to the mid-exposure motion (the fit repeated with the rows put where they belong).
+    // full resolution), and the motion fitted to them (this frame -> previous). Returns
+    // this frame's row offsets: empty when no wobble is found or too few tracks. The
+    // motion between the mid-exposures is then the fit repeated on the tracks moved by
+    // RowMotion::toMidExposure (the motion estimator does that).
     RowMotion estimate(const std::vector<Point2> &previous, const std::vector<Point2> &current,
-                       MotionModel model, Similarity &motion, int width, int height);
+                       const Similarity &motion, int width, int height);
     // The next frame starts afresh (first frame, scene cut).
     void reset();
     void setSettings(const Settings &settings);
@@ -83,9 +86,8 @@ public:
 private:
     Settings settings_;
     int width_ = 0, height_ = 0;
-    // The previous frame's offsets, 3 per band (x, y, turn in px at half the width): as
-    // estimated, and as applied (scaled down by the automatic mode).
-    std::vector<double> offsets_, applied_;
+    // The previous frame's offsets, 3 per band (x, y, turn in px at half the width).
+    std::vector<double> offsets_;
     double level_ = 0.0;
     int frames_ = 0;
 };
