@@ -93,6 +93,7 @@ void RollingShutterEstimator::setSettings(const Settings &settings)
 void RollingShutterEstimator::reset()
 {
     offsets_.clear();
+    mean_velocity_ = Similarity::identity();
     level_ = 0.0;
     frames_ = 0;
 }
@@ -230,16 +231,22 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     std::vector<double> applied(unknowns);
     for (std::size_t k = 0; k < unknowns; ++k)
         applied[k] = gain * offsets[k];
-    // A known readout: the skew of a camera moving at the estimated speed, added whole.
-    // `motion` takes this frame's points to the previous frame's: its shift is the camera's
-    // velocity; a row read later sees the camera further on, the picture further back.
+    // A known readout: the skew of a camera moving at its mean speed. `motion` takes this
+    // frame's points to the previous frame's, so its shift is the camera's velocity; a row
+    // read later sees the camera further on, the picture further back. The leaky sum above
+    // follows the skew's changes and forgets its mean at the rate it leaks: what it forgets
+    // is the mean velocity's skew, an average that leaks in at the same rate.
     if (settings_.readout > 0.0 && height > 1) {
+        const double keep = settings_.leak;
+        mean_velocity_ = {keep * mean_velocity_.dx + (1.0 - keep) * motion.dx,
+                          keep * mean_velocity_.dy + (1.0 - keep) * motion.dy,
+                          keep * mean_velocity_.angle + (1.0 - keep) * motion.angle, 1.0};
         const double rho = settings_.readout / double(height);
         for (int b = 0; b < band_count; ++b) {
-            const double tau = rho * bands.centre(b);  // frames after mid-exposure
-            const double turn = -motion.angle * tau;   // radians
-            applied[std::size_t(b * 3 + 0)] += -motion.dx * tau - turn * bands.centre(b);
-            applied[std::size_t(b * 3 + 1)] += -motion.dy * tau;
+            const double tau = rho * bands.centre(b);         // frames after mid-exposure
+            const double turn = -mean_velocity_.angle * tau;  // radians
+            applied[std::size_t(b * 3 + 0)] += -mean_velocity_.dx * tau - turn * bands.centre(b);
+            applied[std::size_t(b * 3 + 1)] += -mean_velocity_.dy * tau;
             applied[std::size_t(b * 3 + 2)] += turn * half_width;
         }
     }

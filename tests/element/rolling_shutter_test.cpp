@@ -141,6 +141,16 @@ ELEMENT_TEST(the_wobble_of_a_rolling_shutter_is_removed_at_every_delay)
     }
 }
 
+// A camera whose readout time is known: the same, with the correction applied from the start.
+ELEMENT_TEST(a_known_readout_time_removes_the_wobble_too)
+{
+    // 80 % of a 30 fps frame.
+    const Result known = stabilize(vibratingFlight(0.8), "readout-time=26.7");
+    fail_unless(known.wobble_out <= 0.3 * known.wobble_in, "wobble %.3f px of %.3f px left", known.wobble_out,
+                known.wobble_in);
+    fail_unless(known.coverage_min >= 0.995, "border shows (coverage %.4f)", known.coverage_min);
+}
+
 ELEMENT_TEST(footage_without_wobble_comes_out_as_without_the_correction)
 {
     const Result on = stabilize(vibratingFlight(0.0), "");
@@ -158,6 +168,7 @@ int main(int argc, char **argv)
     TCase *tc = makeTestCase("rolling_shutter", 600);
     tcase_add_test(tc, warm_up);
     tcase_add_test(tc, the_wobble_of_a_rolling_shutter_is_removed_at_every_delay);
+    tcase_add_test(tc, a_known_readout_time_removes_the_wobble_too);
     tcase_add_test(tc, footage_without_wobble_comes_out_as_without_the_correction);
     suite_add_tcase(suite, tc);
     return runSuite(suite) == 0 ? 0 : 1;

@@ -15,7 +15,7 @@
 // previous frame's at the same rows; the offsets are their leaky sum (so an error fades
 // instead of staying for good), pinned to zero at the middle row. A camera moving at
 // constant speed skews every frame alike and leaves no such difference: with the readout
-// time known, the skew is added from the estimated speed.
+// time known, that skew is added from the estimated mean speed.
 #pragma once
 
 #include <vector>
@@ -88,6 +88,7 @@ private:
     int width_ = 0, height_ = 0;
     // The previous frame's offsets, 3 per band (x, y, turn in px at half the width).
     std::vector<double> offsets_;
+    Similarity mean_velocity_;  // known readout: the motion's leaky average
     double level_ = 0.0;
     int frames_ = 0;
 };
