@@ -11,6 +11,7 @@ namespace {
 
 constexpr int kUnknownsPerBand = 3;  // shift x, shift y, turn (px at half the width)
 constexpr int kRounds = 3;           // reweighting rounds of the robust fit
+constexpr int kMaxTrackBands = 7;    // bands a track's weights are taken over (its nearest +-3)
 constexpr double kTukeyScale = 2.0;  // Tukey's weight falls to zero at this many times `robust`
 
 struct Bands {
@@ -114,6 +115,7 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     const double half_width = 0.5 * width;
     const double px640 = double(width) / 640.0;
     const std::size_t n = std::min(previous.size(), current.size());
+    const bool automatic = settings_.automatic && settings_.readout <= 0.0;
     // Too few tracks to tell bands apart: the offsets fade out.
     const bool enough = n >= std::size_t(2 * band_count);
 
@@ -130,38 +132,59 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     std::vector<double> robust_weight(n, 1.0);
     double difference_rms = 0.0;
     if (enough) {
+        // Each track's band weights (those that matter: a band more than three spacings away
+        // gets under 1 %), computed once for all rounds.
+        struct TrackBands {
+            int lo = 0, hi = -1;
+            double w[kMaxTrackBands];
+        };
+        std::vector<TrackBands> track_bands(n);
         std::vector<double> w;
+        for (std::size_t i = 0; i < n; ++i) {
+            bandWeights(bands, current[i].y, w);
+            TrackBands &t = track_bands[i];
+            const int nearest = std::clamp(int(std::lround((current[i].y - bands.first) / bands.spacing)), 0,
+                                           band_count - 1);
+            t.lo = std::max(0, nearest - kMaxTrackBands / 2);
+            t.hi = std::min(band_count - 1, t.lo + kMaxTrackBands - 1);
+            for (int b = t.lo; b <= t.hi; ++b)
+                t.w[b - t.lo] = w[std::size_t(b)];
+        }
         const double outlier = settings_.robust * px640;
         for (int round = 0; round < kRounds; ++round) {
             Eigen::MatrixXd a = Eigen::MatrixXd::Zero(Eigen::Index(unknowns), Eigen::Index(unknowns));
             Eigen::VectorXd rhs = Eigen::VectorXd::Zero(Eigen::Index(unknowns));
-            Eigen::VectorXd gx_all = Eigen::VectorXd::Zero(Eigen::Index(unknowns)), gy_all = gx_all;
             double weight_sum = 0.0;
             for (std::size_t i = 0; i < n; ++i) {
-                const Point2 p = current[i];
-                bandWeights(bands, p.y, w);
-                // Only the bands near the point's row carry weight: accumulate over those.
-                int lo = band_count, hi = -1;
-                for (int b = 0; b < band_count; ++b)
-                    if (w[std::size_t(b)] >= 1e-4) {
-                        lo = std::min(lo, b);
-                        hi = b;
-                    }
-                const Eigen::Index k0 = lo * kUnknownsPerBand, span = (hi - lo + 1) * kUnknownsPerBand;
-                auto gx = gx_all.head(span), gy = gy_all.head(span);
-                gx.setZero();
-                gy.setZero();
-                for (int b = lo; b <= hi; ++b) {
-                    const double wb = w[std::size_t(b)];
-                    const Eigen::Index k = (b - lo) * kUnknownsPerBand;
-                    gx[k] = wb;
-                    gx[k + 2] = -wb * (p.y - bands.centre(b)) / half_width;
-                    gy[k + 1] = wb;
-                    gy[k + 2] = wb * p.x / half_width;
-                }
                 const double rw = robust_weight[i];
-                a.block(k0, k0, span, span).noalias() += rw * (gx * gx.transpose() + gy * gy.transpose());
-                rhs.segment(k0, span).noalias() += rw * (gx * residual[i].x + gy * residual[i].y);
+                if (rw <= 0.0)
+                    continue;
+                const Point2 p = current[i];
+                const TrackBands &t = track_bands[i];
+                // The track's motion model: sum over bands of w_b (x_b, y_b) + w_b turn_b (tx_b, ty),
+                // tx_b = -(y - centre_b) / half_width, ty = x / half_width. The normal equations'
+                // terms band by band (gx gx^T + gy gy^T, written out).
+                const double ty = p.x / half_width;
+                for (int b = t.lo; b <= t.hi; ++b) {
+                    const double wb = rw * t.w[b - t.lo];
+                    const double txb = -(p.y - bands.centre(b)) / half_width;
+                    const Eigen::Index kb = b * kUnknownsPerBand;
+                    rhs[kb] += wb * residual[i].x;
+                    rhs[kb + 1] += wb * residual[i].y;
+                    rhs[kb + 2] += wb * (txb * residual[i].x + ty * residual[i].y);
+                    for (int c = t.lo; c <= t.hi; ++c) {
+                        const double wbc = wb * t.w[c - t.lo];
+                        const double txc = -(p.y - bands.centre(c)) / half_width;
+                        const Eigen::Index kc = c * kUnknownsPerBand;
+                        a(kb, kc) += wbc;
+                        a(kb, kc + 2) += wbc * txc;
+                        a(kb + 1, kc + 1) += wbc;
+                        a(kb + 1, kc + 2) += wbc * ty;
+                        a(kb + 2, kc) += wbc * txb;
+                        a(kb + 2, kc + 1) += wbc * ty;
+                        a(kb + 2, kc + 2) += wbc * (txb * txc + ty * ty);
+                    }
+                }
                 weight_sum += rw;
             }
             const double smooth = settings_.band_smoothness * weight_sum, ridge = settings_.band_ridge * weight_sum;
@@ -195,6 +218,11 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
             // The size of the bands' motion, less what they share (a shift the frame fit
             // left over is no wobble).
             difference_rms = std::sqrt(std::max(0.0, sxx / sum - (sx * sx + sy * sy) / (sum * sum)));
+            // Footage without wobble (the common case): the plain fit already shows the bands
+            // far below the threshold, and robust rounds would not change that.
+            const double calm = 0.5 * settings_.threshold;
+            if (automatic && level_ < calm && difference_rms / px640 < calm)
+                break;
         }
     }
 
@@ -226,7 +254,7 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     const double alpha = 1.0 / double(std::min(frames_, std::max(1, settings_.settle)));
     level_ += alpha * (difference_rms / px640 - level_);
     double gain = 1.0;
-    if (settings_.automatic && settings_.readout <= 0.0)
+    if (automatic)
         gain = std::clamp((level_ - settings_.threshold) / std::max(1e-9, settings_.threshold), 0.0, 1.0);
     std::vector<double> applied(unknowns);
     for (std::size_t k = 0; k < unknowns; ++k)
