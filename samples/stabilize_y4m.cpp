@@ -3,6 +3,7 @@
 //
 //   uavstab-stabilize-y4m IN.y4m OUT.y4m [--side-by-side SBS.y4m] [--truth TRUTH.csv]
 //                         [--delay N] [--radius R] [--planner l1|optimal|gaussian|box] [--crop C]
+//                         [--rolling-shutter auto|off]
 //
 // With --truth (as written by uavstab-render-flight) it also prints the true residual
 // jitter of the input and of the output.
@@ -87,13 +88,16 @@ int main(int argc, char **argv)
         }
         else if (a == "--crop")
             config.crop = std::atof(next().c_str());
+        else if (a == "--rolling-shutter")
+            config.rolling_shutter = next() == "off" ? RollingShutter::Off : RollingShutter::Auto;
         else if (in_path.empty())
             in_path = a;
         else if (out_path.empty())
             out_path = a;
         else {
             std::cerr << "usage: uavstab-stabilize-y4m IN.y4m OUT.y4m [--side-by-side SBS.y4m] [--truth CSV]"
-                         " [--delay N] [--radius R] [--planner l1|optimal|gaussian|box] [--crop C]\n";
+                         " [--delay N] [--radius R] [--planner l1|optimal|gaussian|box] [--crop C]"
+                         " [--rolling-shutter auto|off]\n";
             return 2;
         }
     }
