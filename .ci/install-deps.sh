@@ -10,7 +10,9 @@ build=(meson ninja-build pkg-config g++ libeigen3-dev
        gstreamer1.0-tools gstreamer1.0-plugins-base)
 test=(libgtest-dev gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-plugins-ugly
       libgstrtspserver-1.0-dev gstreamer1.0-rtsp gstreamer1.0-libav  # libav: the RTSP test decodes its recording
-      gstreamer1.0-plugins-base-apps)  # gst-discoverer-1.0: samples/ts_klv_stabilize.sh (element_klv test)
+      gstreamer1.0-plugins-base-apps  # gst-discoverer-1.0: samples/ts_klv_stabilize.sh (element_klv test)
+      # element_gl_render: GStreamer's GL elements on Mesa's software OpenGL, in an Xvfb
+      gstreamer1.0-gl libegl-mesa0 libgl1-mesa-dri libglx-mesa0 xvfb xauth)
 demo=(gstreamer1.0-plugins-base-apps gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-plugins-ugly gstreamer1.0-libav)
 fuzz=(clang libclang-rt-14-dev)
 bench=(ffmpeg libopencv-features2d-dev libopencv-calib3d-dev gstreamer1.0-libav time)

@@ -14,15 +14,17 @@ void setSimilarity(GstStructure *structure, const char *prefix, const uavstab::S
                       nullptr);
 }
 
-const char *outcomeName(uavstab::Outcome outcome)
+const char *outcomeName(GstUavStabOutcome outcome)
 {
     switch (outcome) {
-    case uavstab::Outcome::Warped:
+    case GST_UAV_STAB_OUTCOME_WARPED:
         return "warped";
-    case uavstab::Outcome::Bypassed:
+    case GST_UAV_STAB_OUTCOME_BYPASSED:
         return "bypassed";
-    case uavstab::Outcome::NoOutput:
+    case GST_UAV_STAB_OUTCOME_PASSED_THROUGH:
         return "no-output";
+    case GST_UAV_STAB_OUTCOME_AFFINE_META:
+        return "affine-meta";
     default:
         return "failed";
     }
@@ -30,7 +32,8 @@ const char *outcomeName(uavstab::Outcome outcome)
 
 } // namespace
 
-GstStructure *frameStatistics(const uavstab::StabilizedFrame &frame, GstClockTime pts, const GstSegment &segment)
+GstStructure *frameStatistics(const uavstab::StabilizedFrame &frame, GstUavStabOutcome outcome, GstClockTime pts,
+                              const GstSegment &segment)
 {
     const uavstab::FrameStats &stats = frame.stats;
     GstStructure *structure = gst_structure_new(
@@ -38,7 +41,7 @@ GstStructure *frameStatistics(const uavstab::StabilizedFrame &frame, GstClockTim
         G_TYPE_DOUBLE, stats.zoom, "correction-fraction", G_TYPE_DOUBLE, stats.correction_fraction, "model",
         G_TYPE_STRING, uavstab::toString(stats.model), "points", G_TYPE_INT, stats.points, "inliers", G_TYPE_INT,
         stats.inliers, "skipped", G_TYPE_BOOLEAN, gboolean(stats.skipped), "segment-start", G_TYPE_BOOLEAN,
-        gboolean(stats.segment_start), "outcome", G_TYPE_STRING, outcomeName(frame.outcome), "wobble", G_TYPE_DOUBLE,
+        gboolean(stats.segment_start), "outcome", G_TYPE_STRING, outcomeName(outcome), "wobble", G_TYPE_DOUBLE,
         stats.row_motion.wobble, nullptr);
     if (GST_CLOCK_TIME_IS_VALID(pts) && segment.format == GST_FORMAT_TIME) {
         const guint64 running_time = gst_segment_to_running_time(&segment, GST_FORMAT_TIME, pts);

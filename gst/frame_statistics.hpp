@@ -5,15 +5,19 @@
 // with a TIME segment), index (gint64, frames since start or flush), motion-*,
 // trajectory-*, smoothed-*, correction-* (each -dx, -dy, -angle, -scale: doubles), zoom,
 // correction-fraction (double), model ("rigid" or "similarity"), points, inliers (int),
-// skipped, segment-start (boolean), outcome ("warped", "bypassed", "no-output", "failed").
+// skipped, segment-start (boolean), outcome ("warped", "bypassed", "no-output", "failed",
+// "affine-meta").
 #pragma once
 
 #include <gst/gst.h>
 
 #include "uavstab/stabilizer.hpp"
+#include "uavstab_meta.h"
 
 namespace gstuavstab {
 
-GstStructure *frameStatistics(const uavstab::StabilizedFrame &frame, GstClockTime pts, const GstSegment &segment);
+// `outcome`: what went downstream (the meta's outcome).
+GstStructure *frameStatistics(const uavstab::StabilizedFrame &frame, GstUavStabOutcome outcome, GstClockTime pts,
+                              const GstSegment &segment);
 
 } // namespace gstuavstab

@@ -95,9 +95,23 @@ std::optional<uavstab::FrameView> GstFrameSlot::acquireOutput()
 {
     if (output_)
         throw std::logic_error("output acquired twice");
-    output_ = outputs_.acquireOutputBuffer();
-    if (!output_)
+    if (outputs_.leavesFramesUnwarped()) {
+        left_unwarped_ = true;
         return std::nullopt;
+    }
+    GstBuffer *buffer = outputs_.acquireOutputBuffer();
+    if (!buffer)
+        return std::nullopt;
+    return adoptOutput(buffer);
+}
+
+uavstab::FrameView GstFrameSlot::adoptOutput(GstBuffer *buffer)
+{
+    if (output_) {
+        gst_buffer_unref(buffer);
+        throw std::logic_error("output acquired twice");
+    }
+    output_ = buffer;
     GstVideoInfo caps_info = caps_info_;
     if (!gst_video_frame_map(&output_frame_, &caps_info, output_, GST_MAP_WRITE))
         throw std::runtime_error("the output buffer cannot be mapped for writing");
@@ -105,7 +119,7 @@ std::optional<uavstab::FrameView> GstFrameSlot::acquireOutput()
     const std::optional<uavstab::FrameView> view = frameViewOf(output_frame_);
     if (!view)
         throw std::runtime_error("the output buffer does not hold a frame of the input's format");
-    return view;
+    return *view;
 }
 
 GstBuffer *GstFrameSlot::releaseInput()

@@ -23,6 +23,9 @@ public:
     virtual ~OutputBufferSource() = default;
     // A writable buffer for one frame of the current caps, or null when flushing.
     virtual GstBuffer *acquireOutputBuffer() = 0;
+    // Frames go downstream unwarped, with an affine meta (render=affine-meta): the
+    // stabilizer gets no output to warp into.
+    virtual bool leavesFramesUnwarped() = 0;
 };
 
 class GstFrameSlot final : public uavstab::FrameSlot {
@@ -38,6 +41,11 @@ public:
 
     uavstab::FrameView input() override { return input_view_; }
     std::optional<uavstab::FrameView> acquireOutput() override;
+    // Gives the slot `buffer` (the caller's reference) as its output, mapped for writing:
+    // for a frame left unwarped that is warped after all, outside the stabilizer.
+    uavstab::FrameView adoptOutput(GstBuffer *buffer);
+    // acquireOutput() gave no output because frames go downstream with an affine meta.
+    bool leftUnwarped() const { return left_unwarped_; }
 
     GstBuffer *inputBuffer() const { return input_; }
     // Unmaps and hands over the input buffer, untouched.
@@ -64,4 +72,5 @@ private:
     GstBuffer *output_ = nullptr;  // owned reference
     GstVideoFrame output_frame_{};
     bool output_mapped_ = false;
+    bool left_unwarped_ = false;
 };

@@ -19,7 +19,12 @@
  * gst-launch-1.0 filesrc location=flight.mp4 ! decodebin ! videoconvert ! uavstabilize ! videoconvert ! autovideosink
  * gst-launch-1.0 v4l2src ! video/x-raw,format=NV12 ! uavstabilize delay=10 crop=0.1 ! videoconvert ! autovideosink
  * gst-launch-1.0 -m filesrc location=flight.y4m ! y4mdec ! uavstabilize post-messages=true ! fakesink
+ * gst-launch-1.0 filesrc location=flight.mp4 ! decodebin ! videoconvert ! video/x-raw,format=RGBA ! uavstabilize ! glupload ! glimagesink
  * ]|
+ *
+ * With #GstUavStabilize:render = affine-meta (or auto, when downstream's ALLOCATION answer
+ * lists GstVideoAffineTransformationMeta) frames are not warped: each input buffer goes
+ * downstream untouched with that meta, for a GL element to apply as it draws.
  *
  * ## Design
  * A plain element, not a base transform: base transforms forward serialized events
@@ -64,7 +69,10 @@ constexpr const char *kDescription =
     "window of frames and warps every frame onto the smoothed path, zoomed in by 'crop' to hide "
     "the borders. Output is 'delay' frames late (reported as latency) so the smoothing window can "
     "look ahead. With post-messages=true an element message 'uavstabilize' is posted per frame "
-    "(motion, trajectory, smoothed path, correction; angles in radians).\n"
+    "(motion, trajectory, smoothed path, correction; angles in radians). With render=affine-meta (or "
+    "auto, in front of glimagesink or glvideomixer) frames are not warped on the CPU: each goes "
+    "downstream untouched with a GstVideoAffineTransformationMeta that the GL element applies as it "
+    "draws.\n"
     "\n"
     "Example launch lines:\n"
     "  gst-launch-1.0 filesrc location=flight.mp4 ! decodebin ! videoconvert ! uavstabilize ! "
@@ -72,7 +80,9 @@ constexpr const char *kDescription =
     "  gst-launch-1.0 v4l2src ! video/x-raw,format=NV12 ! uavstabilize delay=10 crop=0.1 ! "
     "videoconvert ! autovideosink\n"
     "  gst-launch-1.0 -m filesrc location=flight.y4m ! y4mdec ! uavstabilize post-messages=true ! "
-    "fakesink";
+    "fakesink\n"
+    "  gst-launch-1.0 filesrc location=flight.mp4 ! decodebin ! videoconvert ! video/x-raw,format=RGBA ! "
+    "uavstabilize ! glupload ! glimagesink";
 
 } // namespace
 

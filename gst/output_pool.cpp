@@ -31,7 +31,7 @@ bool configurePool(GstBufferPool *pool, GstCaps *caps, guint size, guint min, gu
 
 } // namespace
 
-GstBufferPool *negotiateOutputPool(GstPad *srcpad, GstCaps *caps, const GstVideoInfo &info)
+OutputAllocation negotiateOutputAllocation(GstPad *srcpad, GstCaps *caps, const GstVideoInfo &info, bool want_pool)
 {
     GstQuery *query = gst_query_new_allocation(caps, TRUE);
     if (!gst_pad_peer_query(srcpad, query))
@@ -47,7 +47,17 @@ GstBufferPool *negotiateOutputPool(GstPad *srcpad, GstCaps *caps, const GstVideo
     if (gst_query_get_n_allocation_params(query) > 0)
         gst_query_parse_nth_allocation_param(query, 0, &allocator, &params);
     const bool video_meta = gst_query_find_allocation_meta(query, GST_VIDEO_META_API_TYPE, nullptr);
+    OutputAllocation result;
+    result.applies_affine_meta =
+        gst_query_find_allocation_meta(query, GST_VIDEO_AFFINE_TRANSFORMATION_META_API_TYPE, nullptr);
     gst_query_unref(query);
+    if (!want_pool) {
+        if (pool)
+            gst_object_unref(pool);
+        if (allocator)
+            gst_object_unref(allocator);
+        return result;
+    }
 
     const guint frame_size = guint(GST_VIDEO_INFO_SIZE(&info));
     if (pool && !configurePool(pool, caps, std::max(size, frame_size), min, max, allocator, params, video_meta)) {
@@ -71,7 +81,8 @@ GstBufferPool *negotiateOutputPool(GstPad *srcpad, GstCaps *caps, const GstVideo
         throw std::runtime_error("no usable output buffer pool");
     }
     GST_DEBUG_OBJECT(srcpad, "output buffers from %" GST_PTR_FORMAT, pool);
-    return pool;
+    result.pool = pool;
+    return result;
 }
 
 bool proposeInputAllocation(GstQuery *query, guint min_buffers)
@@ -99,6 +110,44 @@ bool proposeInputAllocation(GstQuery *query, guint min_buffers)
         gst_object_unref(pool);
     gst_query_add_allocation_meta(query, GST_VIDEO_META_API_TYPE, nullptr);
     return true;
+}
+
+bool forwardInputAllocation(GstPad *srcpad, GstQuery *query, guint min_buffers)
+{
+    GstCaps *caps = nullptr;
+    gboolean need_pool = FALSE;
+    gst_query_parse_allocation(query, &caps, &need_pool);
+    if (!caps)
+        return false;
+    // A query of our own: a refusal leaves upstream's untouched for the default answer.
+    GstQuery *downstream = gst_query_new_allocation(caps, need_pool);
+    bool usable = gst_pad_peer_query(srcpad, downstream) && gst_query_get_n_allocation_pools(downstream) > 0;
+    GstBufferPool *pool = nullptr;
+    guint size = 0, min = 0, max = 0;
+    if (usable) {
+        gst_query_parse_nth_allocation_pool(downstream, 0, &pool, &size, &min, &max);
+        // A pool that cannot hold the frames we keep would starve upstream.
+        usable = max == 0 || max >= min_buffers;
+    }
+    if (usable) {
+        gst_query_add_allocation_pool(query, pool, size, std::max(min, min_buffers), max);
+        for (guint i = 0; i < gst_query_get_n_allocation_params(downstream); ++i) {
+            GstAllocator *allocator = nullptr;
+            GstAllocationParams params;
+            gst_query_parse_nth_allocation_param(downstream, i, &allocator, &params);
+            gst_query_add_allocation_param(query, allocator, &params);
+            if (allocator)
+                gst_object_unref(allocator);
+        }
+        // Only the video meta: any other meta upstream would add (a crop, an affine
+        // transform) is one we do not apply before estimating.
+        gst_query_add_allocation_meta(query, GST_VIDEO_META_API_TYPE, nullptr);
+        GST_DEBUG_OBJECT(srcpad, "proposing downstream's pool %" GST_PTR_FORMAT " upstream", pool);
+    }
+    if (pool)
+        gst_object_unref(pool);
+    gst_query_unref(downstream);
+    return usable;
 }
 
 } // namespace gstuavstab

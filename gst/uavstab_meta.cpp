@@ -107,20 +107,6 @@ gboolean transformMeta(GstBuffer *dest, GstMeta *meta, GstBuffer *, GQuark type,
     return FALSE;
 }
 
-GstUavStabOutcome outcomeOf(uavstab::Outcome outcome)
-{
-    switch (outcome) {
-    case uavstab::Outcome::Warped:
-        return GST_UAV_STAB_OUTCOME_WARPED;
-    case uavstab::Outcome::Bypassed:
-        return GST_UAV_STAB_OUTCOME_BYPASSED;
-    case uavstab::Outcome::NoOutput:
-        return GST_UAV_STAB_OUTCOME_PASSED_THROUGH;
-    default:
-        return GST_UAV_STAB_OUTCOME_FAILED;
-    }
-}
-
 GstUavStabTransform transformOf(const uavstab::Similarity &s)
 {
     return {s.dx, s.dy, s.angle, s.scale};
@@ -156,7 +142,24 @@ void pixelMatrix3x3(const uavstab::Similarity &s, int width, int height, double 
     m[8] = 1;
 }
 
-GstBuffer *attachStabMeta(GstBuffer *buffer, const uavstab::StabilizedFrame &frame, int width, int height, bool warped)
+GstUavStabOutcome outcomeOf(const uavstab::StabilizedFrame &frame, bool warped, bool affine_meta)
+{
+    if (warped)
+        return GST_UAV_STAB_OUTCOME_WARPED;
+    if (affine_meta)
+        return GST_UAV_STAB_OUTCOME_AFFINE_META;
+    switch (frame.outcome) {
+    case uavstab::Outcome::Bypassed:
+        return GST_UAV_STAB_OUTCOME_BYPASSED;
+    case uavstab::Outcome::Failed:
+        return GST_UAV_STAB_OUTCOME_FAILED;
+    default:  // no output buffer (or, oddly, a warp with no buffer): the input, uncorrected
+        return GST_UAV_STAB_OUTCOME_PASSED_THROUGH;
+    }
+}
+
+GstBuffer *attachStabMeta(GstBuffer *buffer, const uavstab::StabilizedFrame &frame, int width, int height,
+                          GstUavStabOutcome outcome)
 {
     // An input that goes out again may still be referenced upstream (a tee, an
     // application): then this is a new GstBuffer over the same memory.
@@ -183,13 +186,12 @@ GstBuffer *attachStabMeta(GstBuffer *buffer, const uavstab::StabilizedFrame &fra
     meta->inliers = stats.inliers;
     meta->skipped = stats.skipped;
     meta->segment_start = stats.segment_start;
-    meta->outcome = warped ? GST_UAV_STAB_OUTCOME_WARPED : outcomeOf(frame.outcome);
-    if (!warped && meta->outcome == GST_UAV_STAB_OUTCOME_WARPED)
-        meta->outcome = GST_UAV_STAB_OUTCOME_PASSED_THROUGH;
+    meta->outcome = outcome;
     meta->width = width;
     meta->height = height;
-    meta->wobble = warped ? stats.row_motion.wobble : 0.0;
-    if (warped)
+    // An affine meta carries one transform: a wobble is not corrected that way.
+    meta->wobble = outcome == GST_UAV_STAB_OUTCOME_WARPED ? stats.row_motion.wobble : 0.0;
+    if (outcome == GST_UAV_STAB_OUTCOME_WARPED || outcome == GST_UAV_STAB_OUTCOME_AFFINE_META)
         pixelMatrix3x3(stats.output_to_input, width, height, meta->output_to_input);
     else
         setIdentity(meta->output_to_input);

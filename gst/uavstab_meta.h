@@ -23,7 +23,9 @@
  *
  * It is exactly what was drawn: output pixel (x, y) shows input point output_to_input(x,
  * y). For frames that were not warped (BYPASSED, PASSED_THROUGH, FAILED) the buffer is the
- * input, untouched, and the matrix is the identity. A video scaler downstream (videoscale,
+ * input, untouched, and the matrix is the identity. AFFINE_META frames are the input,
+ * untouched, too, but the matrix is what a GL element draws with their
+ * GstVideoAffineTransformationMeta: map the buffer's pixels through it as for a warped one. A video scaler downstream (videoscale,
  * videoconvertscale) rescales the matrix to the new size (and sets width, height); other
  * elements that change geometry (videoflip, videocrop, ...) drop the meta, as they drop
  * every meta tagged "orientation" or "size".
@@ -45,8 +47,8 @@ G_BEGIN_DECLS
 /* Names of the meta API type and implementation (registered by the plugin). */
 #define GST_UAV_STAB_META_API_NAME "GstUavStabMetaAPI"
 #define GST_UAV_STAB_META_IMPL_NAME "GstUavStabMeta"
-/* Bumped when fields are added (at the end of the struct). */
-#define GST_UAV_STAB_META_VERSION 2
+/* Bumped when fields or outcomes are added (fields at the end of the struct). */
+#define GST_UAV_STAB_META_VERSION 3
 
 /* A similarity about the frame centre: p' = scale * R(angle) * p + (dx, dy). */
 typedef struct {
@@ -66,6 +68,9 @@ typedef enum {
     GST_UAV_STAB_OUTCOME_BYPASSED = 1,       /* bypass=true: the input, untouched */
     GST_UAV_STAB_OUTCOME_PASSED_THROUGH = 2, /* no output buffer to warp into: the input, uncorrected */
     GST_UAV_STAB_OUTCOME_FAILED = 3,         /* stabilization failed (warning posted): the input, uncorrected */
+    /* version >= 3, render=affine-meta: the input, untouched, with a GstVideoAffineTransformationMeta
+       that draws it stabilized; output_to_input is that mapping */
+    GST_UAV_STAB_OUTCOME_AFFINE_META = 4,
 } GstUavStabOutcome;
 
 typedef struct {

@@ -17,13 +17,18 @@ const GstMetaInfo *registerStabMeta();
 // frame.
 void pixelMatrix3x3(const uavstab::Similarity &s, int width, int height, double m[9]);
 
+// What went downstream for `frame`: the library's outcome, told apart by what the element
+// did with it (`warped`: the buffer holds the warped frame; `affine_meta`: the input with
+// an affine meta).
+GstUavStabOutcome outcomeOf(const uavstab::StabilizedFrame &frame, bool warped, bool affine_meta);
+
 // Attaches this element's meta for `frame` to `buffer` (the buffer that goes out; made
 // writable, so the result may be another GstBuffer sharing the same memory, and any
-// GstUavStabMeta of an earlier uavstabilize is replaced). `warped` says whether the
-// buffer holds the warped frame (else it is the input, untouched: identity matrix).
+// GstUavStabMeta of an earlier uavstabilize is replaced). The matrix is the frame's
+// mapping for WARPED and AFFINE_META, else the identity (the input, untouched).
 // Takes over the reference to `buffer` and returns the reference to push.
 GstBuffer *attachStabMeta(GstBuffer *buffer, const uavstab::StabilizedFrame &frame, int width, int height,
-                          bool warped);
+                          GstUavStabOutcome outcome);
 
 // Adds to `output` every GstVideoRegionOfInterestMeta of `input`, its box mapped into the
 // warped frame: the bounding box of its four corners through the inverse of

@@ -7,10 +7,13 @@
 //   uavstabilize_sink.cpp        the sink pad: chain (input buffers) and events
 //   uavstabilize_src_task.cpp    the src pad task: pushes the output in order
 //   uavstabilize_queries.cpp     queries on both pads
+//   uavstabilize_render.cpp      render=auto|warp|affine-meta: the output negotiation and
+//                                what frames left unwarped get
 //   output_channel.cpp           the state those threads share: the ordered output queue,
 //                                the output pool and the flow flags, under one mutex
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <memory>
 #include <set>
@@ -33,12 +36,18 @@ struct UavStabilizeState final : OutputBufferSource {
     explicit UavStabilizeState(GstObject *owner) : output(owner) {}
     ~UavStabilizeState() override;
     GstBuffer *acquireOutputBuffer() override { return output.acquireBuffer(); }
+    bool leavesFramesUnwarped() override { return render_affine_meta.load(); }
 
     // Shared between the streaming thread, the task, the workers' ready callback,
     // flushing threads and state changes; thread-safe (OutputChannel's mutex).
     OutputChannel output;
     // Written by the streaming thread, read by LATENCY queries; thread-safe.
     FrameTiming timing;
+    // Rendering, decided at each output negotiation (caps on the streaming thread,
+    // RECONFIGURE on the task) and setting change; read by both threads.
+    std::atomic<bool> downstream_applies_affine_meta{false};
+    std::atomic<bool> render_affine_meta{false};       // frames go out unwarped, with an affine meta
+    std::atomic<int> render_mode{int(RenderMode::Auto)};  // the `render` setting it was decided under
 
     // Streaming thread only (under the sink pad's stream lock), except that the task
     // thread uses `stabilizer` (tryPop) while the pads are active.
@@ -106,6 +115,24 @@ void failStream(GstUavStabilize *self, UavStabilizeState &s, const char *what, c
 void srcLoop(gpointer user_data);
 // (Re)starts the task if the src pad is active.
 void startTask(GstUavStabilize *self);
+
+// --- Rendering (uavstabilize_render.cpp)
+
+// Sets render_affine_meta from the `render` and debug-overlay settings and downstream's
+// last answer; logs the decision when `negotiated` or when it changed.
+void decideRendering(GstUavStabilize *self, UavStabilizeState &s, bool negotiated);
+// Asks downstream for its allocation for `caps` (output pool unless render=affine-meta)
+// and decides the rendering. Nothing else may push on the src pad meanwhile.
+void negotiateOutput(GstUavStabilize *self, UavStabilizeState &s, GstCaps *caps, const GstVideoInfo &info);
+// The same for the src pad's current caps (the task, on RECONFIGURE).
+void renegotiateOutput(GstUavStabilize *self, UavStabilizeState &s);
+// render=auto: a frame left unwarped that needs the warp after all (a rolling-shutter
+// wobble to correct).
+bool warpsLeftUnwarpedFrame(const UavStabilizeState &s, const uavstab::StabilizedFrame &frame);
+// Warps such a frame here (the task thread) as the stabilizer would have; returns the
+// warped buffer, stamped and with its regions of interest mapped, or null when there is
+// no output buffer (flushing).
+GstBuffer *warpLeftUnwarpedFrame(GstUavStabilize *self, UavStabilizeState &s, uavstab::StabilizedFrame &frame);
 
 // --- Queries (uavstabilize_queries.cpp)
 

@@ -1,6 +1,7 @@
 #include "uavstabilize_enums.hpp"
 
 #include "uavstab/config.hpp"
+#include "uavstabilize_settings.hpp"
 
 namespace {
 
@@ -67,6 +68,24 @@ GType uavstabilize_border_get_type()
         {0, nullptr, nullptr},
     };
     return registerEnum(&type, "GstUavStabilizeBorder", values);
+}
+
+GType uavstabilize_render_get_type()
+{
+    static gsize type = 0;
+    static const GEnumValue values[] = {
+        {int(RenderMode::Auto),
+         "affine-meta where downstream says it applies GstVideoAffineTransformationMeta (GL elements), else warp "
+         "(default)",
+         "auto"},
+        {int(RenderMode::Warp), "Warp every frame on the CPU into a new buffer", "warp"},
+        {int(RenderMode::AffineMeta),
+         "No warp: the input buffer goes downstream untouched with a GstVideoAffineTransformationMeta that a GL "
+         "element applies when it draws",
+         "affine-meta"},
+        {0, nullptr, nullptr},
+    };
+    return registerEnum(&type, "GstUavStabilizeRender", values);
 }
 
 GType uavstabilize_enum_type_for_field(const char *field)

@@ -8,11 +8,13 @@
 #define UAVSTABILIZE_TYPE_MODEL (uavstabilize_model_get_type())
 #define UAVSTABILIZE_TYPE_BORDER (uavstabilize_border_get_type())
 #define UAVSTABILIZE_TYPE_ROLLING_SHUTTER (uavstabilize_rolling_shutter_get_type())
+#define UAVSTABILIZE_TYPE_RENDER (uavstabilize_render_get_type())
 
 GType uavstabilize_planner_get_type();   // uavstab::PlannerKind
 GType uavstabilize_model_get_type();     // uavstab::ModelChoice
-GType uavstabilize_border_get_type();
-GType uavstabilize_rolling_shutter_get_type();  // uavstab::RollingShutter    // uavstab::BorderMode
+GType uavstabilize_border_get_type();  // uavstab::BorderMode
+GType uavstabilize_rolling_shutter_get_type();  // uavstab::RollingShutter
+GType uavstabilize_render_get_type();  // RenderMode (uavstabilize_settings.hpp), the element's own
 
 // The GEnum type of an enum field of uavstab::StabilizerConfig, by field name ("model");
 // G_TYPE_INVALID for a field that has none.

@@ -29,6 +29,11 @@ guint propMaxErrors()
     return configPropertyCount() + 2;
 }
 
+guint propRender()
+{
+    return configPropertyCount() + 3;
+}
+
 constexpr GParamFlags kPlaying =
     GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
 constexpr GParamFlags kReady = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
@@ -130,6 +135,17 @@ void installProperties(GObjectClass *gobject_class)
                          "dropped with a warning; the next one is an error (-1 = never an error; like the "
                          "video decoders' max-errors)",
                          -1, G_MAXINT, kDefaultMaxErrors, kPlaying));
+    g_object_class_install_property(
+        gobject_class, propRender(),
+        g_param_spec_enum("render", "Render",
+                          "How stabilized frames are drawn. warp: on the CPU, into new buffers. affine-meta: not "
+                          "at all here: each input buffer goes downstream untouched (no copy) with a "
+                          "GstVideoAffineTransformationMeta that GL elements (glimagesink, glvideomixer) apply when "
+                          "they draw, which leaves the CPU to the motion estimation; frames whose rolling-shutter "
+                          "wobble was found get the transform of their middle row, and debug-overlay draws "
+                          "nothing. auto: affine-meta when downstream's ALLOCATION answer lists that meta, else "
+                          "warp; frames with a wobble to correct (and debug-overlay) are warped either way",
+                          UAVSTABILIZE_TYPE_RENDER, int(RenderMode::Auto), kReady));
 }
 
 void markEnumTypesAsPluginApi()
@@ -137,6 +153,7 @@ void markEnumTypesAsPluginApi()
     for (const uavstab::ConfigParam &p : uavstab::configParams())
         if (p.kind == uavstab::ParamKind::Enum)
             gst_type_mark_as_plugin_api(uavstabilize_enum_type_for_field(p.name), GstPluginAPIFlags(0));
+    gst_type_mark_as_plugin_api(UAVSTABILIZE_TYPE_RENDER, GstPluginAPIFlags(0));
 }
 
 bool setProperty(UavStabilizeSettings &settings, guint id, const GValue *value, std::string *refusal)
@@ -166,6 +183,8 @@ bool setProperty(UavStabilizeSettings &settings, guint id, const GValue *value, 
         settings.post_messages = g_value_get_boolean(value);
     } else if (id == propMaxErrors()) {
         settings.max_errors = g_value_get_int(value);
+    } else if (id == propRender()) {
+        settings.render = RenderMode(g_value_get_enum(value));
     } else {
         return false;
     }
@@ -183,6 +202,8 @@ bool getProperty(const UavStabilizeSettings &settings, guint id, GValue *value)
         g_value_set_boolean(value, settings.post_messages);
     else if (id == propMaxErrors())
         g_value_set_int(value, settings.max_errors);
+    else if (id == propRender())
+        g_value_set_enum(value, int(settings.render));
     else
         return false;
     return true;

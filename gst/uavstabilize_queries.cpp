@@ -57,7 +57,11 @@ bool handleSinkQuery(GstUavStabilize *self, UavStabilizeState &s, GstPad *pad, G
     case GST_QUERY_ACCEPT_CAPS:
         return acceptCaps(self, pad, query);
     case GST_QUERY_ALLOCATION:
-        // Upstream's pool must cover the frames we hold.
+        // Upstream's pool must cover the frames we hold. Frames that go downstream
+        // untouched may as well be written into downstream's buffers.
+        if (s.render_affine_meta.load() &&
+            forwardInputAllocation(self->srcpad, query, currentDelay(self) + kExtraInputBuffers))
+            return true;
         return proposeInputAllocation(query, currentDelay(self) + kExtraInputBuffers);
     case GST_QUERY_DRAIN:
         // Everything held goes out before the answer.

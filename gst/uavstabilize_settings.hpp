@@ -8,10 +8,18 @@
 // warning before the next one is an error; -1 = never an error.
 constexpr int kDefaultMaxErrors = 10;
 
+// How a stabilized frame reaches downstream (the `render` property).
+enum class RenderMode {
+    Auto = 0,        // AffineMeta where downstream applies the meta, else Warp
+    Warp = 1,        // the CPU warp into a new buffer
+    AffineMeta = 2,  // the input buffer, untouched, with a GstVideoAffineTransformationMeta
+};
+
 struct UavStabilizeSettings {
     uavstab::StabilizerConfig stabilizer;
     bool post_messages = false;
     int max_errors = kDefaultMaxErrors;
+    RenderMode render = RenderMode::Auto;
     // Set by every change of `stabilizer`, cleared when the streaming thread applies the
     // config, so that changes in PLAYING reach the stabilizer at the next frame.
     bool dirty = false;

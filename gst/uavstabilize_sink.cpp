@@ -25,7 +25,9 @@ GstFlowReturn waitForOutputRoom(UavStabilizeState &s)
 // Streaming thread, with the output queue drained and the new caps pushed.
 void negotiateOutputPool(GstUavStabilize *self, UavStabilizeState &s)
 {
-    s.output.replacePool(gstuavstab::negotiateOutputPool(self->srcpad, s.caps, s.info));
+    // This negotiation answers any RECONFIGURE so far; the task answers later ones.
+    gst_pad_check_reconfigure(self->srcpad);
+    negotiateOutput(self, s, s.caps, s.info);
 }
 
 // ---------------------------------------------------------------------------------
@@ -95,6 +97,7 @@ GstFlowReturn chainFrame(GstUavStabilize *self, UavStabilizeState &s, BufferPtr 
         return GST_FLOW_NOT_NEGOTIATED;
     }
     applyChangedSettings(self, s);
+    decideRendering(self, s, false);  // debug-overlay may have changed
     // A known sensor readout time is a share of this.
     const GstClockTime frame_duration = s.timing.frameDuration();
     s.stabilizer->setFrameInterval(GST_CLOCK_TIME_IS_VALID(frame_duration) ? double(frame_duration) / GST_MSECOND

@@ -7,6 +7,7 @@
 #include "frame_statistics.hpp"
 #include "uavstab_meta.hpp"
 #include "uavstabilize_element.hpp"
+#include "uavstabilize_render.hpp"
 
 #define GST_CAT_DEFAULT gst_uav_stabilize_debug
 
@@ -18,9 +19,9 @@ namespace {
 constexpr std::size_t kMaxReportedErrors = 32;
 
 void postStatistics(GstUavStabilize *self, const UavStabilizeState &s, const uavstab::StabilizedFrame &frame,
-                    GstClockTime pts)
+                    GstUavStabOutcome outcome, GstClockTime pts)
 {
-    GstStructure *structure = frameStatistics(frame, pts, s.output_segment);
+    GstStructure *structure = frameStatistics(frame, outcome, pts, s.output_segment);
     gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), structure));
 }
 
@@ -41,6 +42,7 @@ GstFlowReturn pushFrame(GstUavStabilize *self, UavStabilizeState &s, uavstab::St
     auto &slot = static_cast<GstFrameSlot &>(*frame.slot);
     const int width = slot.input().width, height = slot.input().height;
     GstBuffer *buffer = nullptr;
+    bool affine_meta = false;
     switch (frame.outcome) {
     case uavstab::Outcome::Warped:
         buffer = slot.releaseOutput();
@@ -53,17 +55,25 @@ GstFlowReturn pushFrame(GstUavStabilize *self, UavStabilizeState &s, uavstab::St
     case uavstab::Outcome::NoOutput:
         if (s.output.flushing())
             return GST_FLOW_OK;  // dropped with the slot: nobody wants it any more
+        if (slot.leftUnwarped()) {
+            if (warpsLeftUnwarpedFrame(s, frame))
+                buffer = warpLeftUnwarpedFrame(self, s, frame);
+            // Without an output buffer (flushing meanwhile) the meta still draws it right.
+            affine_meta = buffer == nullptr;
+        }
         break;
     case uavstab::Outcome::Failed:
         reportFailedFrame(self, s, frame.error);
         break;
     }
-    const bool warped = buffer != nullptr;
+    const GstUavStabOutcome outcome = outcomeOf(frame, buffer != nullptr, affine_meta);
     if (!buffer)
-        buffer = slot.releaseInput();  // bypass or pass-through: the input, untouched
-    buffer = attachStabMeta(buffer, frame, width, height, warped);
+        buffer = slot.releaseInput();  // bypass, pass-through, affine meta: the input, untouched
+    buffer = attachStabMeta(buffer, frame, width, height, outcome);  // writable from here on
+    if (affine_meta)
+        addAffineTransformationMeta(buffer, frame.stats.output_to_input, width, height);
     if (postMessagesEnabled(self))
-        postStatistics(self, s, frame, GST_BUFFER_PTS(buffer));
+        postStatistics(self, s, frame, outcome, GST_BUFFER_PTS(buffer));
     frame.slot.reset();  // unmaps and lets go of the input before it goes downstream
     return gst_pad_push(self->srcpad, buffer);
 }
@@ -88,6 +98,10 @@ void runOutputStep(GstUavStabilize *self, UavStabilizeState &s)
     const auto pause_task = [self] { gst_pad_pause_task(self->srcpad); };
     GstFlowReturn ret = GST_FLOW_OK;
     if (frame) {
+        // Downstream changed (a sink swapped, a GL element linked): the task is the one
+        // pushing, so its ALLOCATION query keeps its place among the buffers.
+        if (gst_pad_check_reconfigure(self->srcpad))
+            renegotiateOutput(self, s);
         ret = pushFrame(self, s, *frame);
     } else {
         const GstEventType type = GST_EVENT_TYPE(event.get());

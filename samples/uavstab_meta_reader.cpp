@@ -35,6 +35,8 @@ const char *outcomeName(GstUavStabOutcome outcome)
         return "passed-through";
     case GST_UAV_STAB_OUTCOME_FAILED:
         return "failed";
+    case GST_UAV_STAB_OUTCOME_AFFINE_META:
+        return "affine-meta";
     }
     return "?";
 }

@@ -267,6 +267,27 @@ ELEMENT_TEST(every_config_field_is_a_property_with_its_range_and_default)
     gst_object_unref(element);
 }
 
+// render (the element's own): auto by default, its three nicks, settable before the stream.
+ELEMENT_TEST(render_is_an_enum_with_auto_by_default)
+{
+    GstElement *element = makeStabilizer();
+    fail_unless(uavstab::findConfigParam("render") == nullptr);
+    GParamSpec *spec = g_object_class_find_property(G_OBJECT_GET_CLASS(element), "render");
+    fail_unless(spec != nullptr && G_IS_PARAM_SPEC_ENUM(spec));
+    fail_unless(spec->flags & GST_PARAM_MUTABLE_READY);
+    GEnumClass *values = G_PARAM_SPEC_ENUM(spec)->enum_class;
+    fail_unless_equals_string(g_enum_get_value(values, G_PARAM_SPEC_ENUM(spec)->default_value)->value_nick, "auto");
+    for (const char *nick : {"warp", "affine-meta", "auto"}) {
+        const GEnumValue *value = g_enum_get_value_by_nick(values, nick);
+        fail_unless(value != nullptr, "no render=%s", nick);
+        setProperties(element, std::string("render=") + nick);
+        gint current = -1;
+        g_object_get(element, "render", &current, nullptr);
+        fail_unless_equals_int(current, value->value);
+    }
+    gst_object_unref(element);
+}
+
 ELEMENT_TEST(element_and_library_accept_and_refuse_the_same_values)
 {
     for (const ConfigParam &p : uavstab::configParams()) {
@@ -370,6 +391,7 @@ int main(int argc, char **argv)
     tcase_add_test(tc, element_and_library_accept_and_refuse_the_same_values);
     tcase_add_test(tc, an_even_tracking_window_is_rounded_up_by_the_element);
     tcase_add_test(tc, element_and_library_accept_and_refuse_the_same_strings);
+    tcase_add_test(tc, render_is_an_enum_with_auto_by_default);
     tcase_add_test(tc, every_property_at_its_min_runs);
     tcase_add_test(tc, every_property_at_its_max_runs);
     return runSuite(s) == 0 ? 0 : 1;
