@@ -114,14 +114,21 @@ bool glWorks(std::string &why)
     return ok;
 }
 
-const std::vector<GstBuffer *> &flightFrames()
+std::vector<GstBuffer *> renderFlight(double readout)
 {
-    static std::vector<GstBuffer *> frames = [] {
-        uavstab::synthetic::FlightOptions options;
-        options.width = kWidth;
-        options.height = kHeight;
-        options.frames = kFrames;
-        uavstab::synthetic::ShakyFlight flight(options);
+    uavstab::synthetic::FlightOptions options;
+    options.width = kWidth;
+    options.height = kHeight;
+    options.frames = kFrames;
+    if (readout > 0) {
+        // A rolling shutter on a vibrating camera, as rolling_shutter_test.cpp's.
+        options.readout = readout;
+        options.vibration_hz = 47.0;
+        options.vibration_px = 2.0;
+        options.vibration_deg = 0.1;
+    }
+    uavstab::synthetic::ShakyFlight flight(options);
+    {
         GstCaps *caps = videoCaps("I420", kWidth, kHeight);
         const GstVideoInfo info = videoInfo(caps);
         gst_caps_unref(caps);
@@ -132,8 +139,15 @@ const std::vector<GstBuffer *> &flightFrames()
             result.push_back(buffer);
         }
         return result;
-    }();
-    return frames;
+    }
+}
+
+std::vector<GstBuffer *> *flight_frames = nullptr;  // what runFlight() pushes
+
+const std::vector<GstBuffer *> &flightFrames()
+{
+    static std::vector<GstBuffer *> frames = renderFlight(0.0);
+    return flight_frames ? *flight_frames : frames;
 }
 
 struct Outcome {
@@ -141,6 +155,7 @@ struct Outcome {
     int outcome;
     bool affine_meta;
     bool input_memory;  // the buffer's memory is the memory uavstabilize was given
+    double wobble;
 };
 
 struct Run {
@@ -177,7 +192,8 @@ GstPadProbeReturn recordOutput(GstPad *, GstPadProbeInfo *info, gpointer data)
     probes->outcomes->push_back({GST_BUFFER_PTS(buffer), meta ? int(meta->outcome) : -1,
                                  gst_buffer_get_video_affine_transformation_meta(buffer) != nullptr,
                                  index < probes->inputs.size() &&
-                                     gst_buffer_peek_memory(buffer, 0) == probes->inputs[index]});
+                                     gst_buffer_peek_memory(buffer, 0) == probes->inputs[index],
+                                 meta ? meta->wobble : 0.0});
     return GST_PAD_PROBE_OK;
 }
 
@@ -308,6 +324,31 @@ GST_START_TEST(auto_uses_the_meta_only_where_downstream_applies_it)
 }
 GST_END_TEST;
 
+// One affine meta cannot bend rows: auto warps the frames with a wobble to correct (on the
+// src task) and sends the others with the meta.
+GST_START_TEST(auto_warps_frames_with_a_wobble)
+{
+    std::vector<GstBuffer *> frames = renderFlight(0.8);
+    flight_frames = &frames;
+    Run run;
+    runFlight("render=auto", kGlTail, run);
+    flight_frames = nullptr;
+    checkEveryFrameInOrder(run, "auto, rolling shutter");
+    int warped = 0, affine = 0;
+    for (const Outcome &o : run.outcomes) {
+        fail_unless(o.outcome == GST_UAV_STAB_OUTCOME_WARPED || o.outcome == GST_UAV_STAB_OUTCOME_AFFINE_META);
+        fail_unless(o.outcome == GST_UAV_STAB_OUTCOME_WARPED ? (o.wobble > 0 && !o.affine_meta && !o.input_memory)
+                                                             : (o.affine_meta && o.input_memory));
+        (o.outcome == GST_UAV_STAB_OUTCOME_WARPED ? warped : affine)++;
+    }
+    g_print("gl_render: rolling-shutter flight, auto: %d frames warped (wobble corrected), %d with the affine meta\n",
+            warped, affine);
+    fail_unless(warped > 0, "no frame had a wobble corrected");
+    for (GstBuffer *frame : frames)
+        gst_buffer_unref(frame);
+}
+GST_END_TEST;
+
 GST_START_TEST(auto_warps_in_front_of_fakesink)
 {
     GstElement *pipeline = launchPipeline("videotestsrc num-buffers=10 pattern=ball ! video/x-raw,width=160,height=120 "
@@ -347,6 +388,7 @@ int main(int argc, char **argv)
     suite_add_tcase(s, tc);
     tcase_add_test(tc, affine_meta_draws_what_the_warp_draws);
     tcase_add_test(tc, auto_uses_the_meta_only_where_downstream_applies_it);
+    tcase_add_test(tc, auto_warps_frames_with_a_wobble);
     tcase_add_test(tc, auto_warps_in_front_of_fakesink);
     SRunner *runner = srunner_create(s);
     srunner_set_fork_status(runner, CK_NOFORK);
