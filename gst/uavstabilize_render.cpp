@@ -18,25 +18,6 @@ namespace gstuavstab {
 
 namespace {
 
-// Anchors of a rolling-shutter warp: as the stabilizer's own (lib/src/stabilizer.cpp,
-// rowTransforms), so that a frame warped here is the frame the stabilizer would warp.
-constexpr int kRowAnchors = 24;
-
-uavstab::RowTransforms rowTransforms(const uavstab::Similarity &output_to_input, const uavstab::RowMotion &rows,
-                                     int height)
-{
-    std::vector<double> anchors;
-    std::vector<uavstab::Similarity> transforms;
-    const double centre = 0.5 * (height - 1);
-    for (int j = 0; j <= kRowAnchors; ++j) {
-        const double y = (height - 1) * double(j) / kRowAnchors;
-        const double input_row = output_to_input.apply({0.0, y - centre}).y;
-        anchors.push_back(y);
-        transforms.push_back(rows.at(input_row) * output_to_input);
-    }
-    return uavstab::RowTransforms(std::move(anchors), std::move(transforms));
-}
-
 const char *renderName(RenderMode mode)
 {
     switch (mode) {
@@ -146,8 +127,8 @@ GstBuffer *warpLeftUnwarpedFrame(GstUavStabilize *self, UavStabilizeState &s, ua
     GST_OBJECT_UNLOCK(self);
     const uavstab::FrameView in = slot.input();
     const uavstab::FrameView out = slot.adoptOutput(buffer);
-    uavstab::FrameWarper(border).warp(in, out, rowTransforms(frame.stats.output_to_input, frame.stats.row_motion,
-                                                             in.height));
+    uavstab::FrameWarper(border).warp(
+        in, out, uavstab::rollingShutterWarp(frame.stats.output_to_input, frame.stats.row_motion, in.height));
     GstBuffer *warped = slot.releaseOutput();
     mapRegionsOfInterest(slot.inputBuffer(), warped, frame.stats.output_to_input, in.width, in.height);
     return warped;

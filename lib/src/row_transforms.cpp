@@ -67,4 +67,21 @@ std::array<double, 6> RowMatrices::at(double y) const
     return m;
 }
 
+RowTransforms rollingShutterWarp(const Similarity &output_to_input, const RowMotion &rows, int height)
+{
+    if (rows.empty() || height < 2)
+        return RowTransforms(output_to_input);
+    constexpr int kAnchors = 24;  // intervals: the offsets vary smoothly over 12 bands
+    std::vector<double> anchors;
+    std::vector<Similarity> transforms;
+    const double centre = 0.5 * (height - 1);
+    for (int j = 0; j <= kAnchors; ++j) {
+        const double y = (height - 1) * double(j) / kAnchors;
+        const double input_row = output_to_input.apply({0.0, y - centre}).y;
+        anchors.push_back(y);
+        transforms.push_back(rows.at(input_row) * output_to_input);
+    }
+    return RowTransforms(std::move(anchors), std::move(transforms));
+}
+
 } // namespace uavstab

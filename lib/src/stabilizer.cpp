@@ -44,26 +44,6 @@ struct Stabilizer::PlanJob {
 };
 
 namespace {
-// Output rows at which the rolling-shutter transforms are anchored (linear in between).
-constexpr int kRowAnchors = 24;
-
-// Each output row samples the input where the frame captured the point the stabilizing
-// transform maps it to: output -> mid-exposure input (output_to_input) -> captured (the
-// offset at that input row).
-RowTransforms rowTransforms(const Similarity &output_to_input, const RowMotion &rows, int height)
-{
-    std::vector<double> anchors;
-    std::vector<Similarity> transforms;
-    const double centre = 0.5 * (height - 1);
-    for (int j = 0; j <= kRowAnchors; ++j) {
-        const double y = (height - 1) * double(j) / kRowAnchors;
-        const double input_row = output_to_input.apply({0.0, y - centre}).y;
-        anchors.push_back(y);
-        transforms.push_back(rows.at(input_row) * output_to_input);
-    }
-    return RowTransforms(std::move(anchors), std::move(transforms));
-}
-
 // A config change that leaves these alone keeps the planner (and the path it is on).
 bool samePlanner(const StabilizerConfig &a, const StabilizerConfig &b)
 {
@@ -300,7 +280,7 @@ void Stabilizer::planAndWarp(PlanJob &job)
         stats.correction_fraction = planned.correction_fraction;
         stats.output_to_input = planned.output_to_input;
         if (!stats.row_motion.empty() && pending->input.height > 1)
-            pending->rows = rowTransforms(stats.output_to_input, stats.row_motion, pending->input.height);
+            pending->rows = rollingShutterWarp(stats.output_to_input, stats.row_motion, pending->input.height);
     } catch (const std::exception &e) {
         planner_.reset();  // start afresh with the next frame
         std::lock_guard<std::mutex> lock(mutex_);

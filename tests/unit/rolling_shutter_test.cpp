@@ -8,6 +8,7 @@
 
 #include "uavstab/motion_model.hpp"
 #include "uavstab/rolling_shutter.hpp"
+#include "uavstab/row_transforms.hpp"
 
 using namespace uavstab;
 
@@ -179,4 +180,28 @@ TEST(RollingShutter, FewTracksOrNoneGiveNoCorrectionAndNoCrash)
     const std::vector<Point2> a{{0, 0}, {10, 10}}, b{{1, 0}, {11, 10}};
     EXPECT_TRUE(estimator.estimate(a, b, motion, kWidth, kHeight).empty());
     EXPECT_TRUE(estimator.estimate(a, b, motion, 4, 2).empty());
+}
+
+TEST(RollingShutter, TheWarpSamplesEachRowWhereItsInputRowWasCaptured)
+{
+    // Rows bent by a shift that grows down the frame; a stabilizing transform that moves
+    // the picture down by 10 px (output row y reads input row y + 10).
+    RowMotion rows;
+    for (int b = 0; b < 4; ++b) {
+        rows.rows.push_back(-270.0 + 180.0 * b);
+        rows.offsets.push_back({0.5 * b, 0.0, 0.0, 1.0});
+    }
+    const Similarity down{0.0, 10.0, 0.0, 1.0};
+    const RowTransforms warp = rollingShutterWarp(down, rows, kHeight);
+    ASSERT_FALSE(warp.isConstant());
+    const RowMatrices matrices(warp, kWidth, kHeight);
+    for (double y : {0.0, 100.0, 359.5, 600.0, 719.0}) {
+        const double input_row = y - 0.5 * (kHeight - 1) + 10.0;  // centred
+        const std::array<double, 6> m = matrices.at(y);
+        // x: the output pixel plus the offset at the input row (to within the anchors' linear
+        // interpolation); y: 10 px further down.
+        EXPECT_NEAR(m[2], rows.at(input_row).dx, 0.01) << "row " << y;
+        EXPECT_NEAR(m[5], 10.0, 1e-9) << "row " << y;
+    }
+    EXPECT_TRUE(rollingShutterWarp(down, RowMotion{}, kHeight).isConstant());
 }

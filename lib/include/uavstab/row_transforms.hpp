@@ -6,6 +6,7 @@
 #include <array>
 #include <vector>
 
+#include "uavstab/rolling_shutter.hpp"
 #include "uavstab/similarity.hpp"
 
 namespace uavstab {
@@ -47,5 +48,11 @@ private:
     std::vector<double> anchor_rows_;
     std::vector<std::array<double, 6>> matrices_;
 };
+
+// The warp that also undoes a frame's rolling shutter: each output row samples the input
+// where the frame captured the point the stabilizing transform maps it to (the row offset
+// at that input row); anchored at 25 output rows, linear in between. A frame `height` rows
+// high; empty `rows`: output_to_input at every row.
+RowTransforms rollingShutterWarp(const Similarity &output_to_input, const RowMotion &rows, int height);
 
 } // namespace uavstab
