@@ -9,6 +9,7 @@
 #include <iostream>
 #include <map>
 #include <sstream>
+#include <tuple>
 
 #include "common.hpp"
 
@@ -292,6 +293,78 @@ int main(int argc, char **argv)
                                    !any ? "not measured" : failed.empty() ? "**met**" : "**not met** (" + failed + ")"});
             }
         }
+        // Issue 21: rolling-shutter correction (bench_rolling_shutter.cpp), judged on every
+        // flight, seed and delay (the worst), not on means.
+        if (n.has("rs.flights.runs")) {
+            targets.push_back({"rolling shutter (synthetic flights, readout 50-90 %, 30-60 Hz vibration, auto): wobble "
+                               "out <= 0.3x in, every flight, seed and delay",
+                               format("worst %.2fx (%s); mean %.2fx; rolling_shutter=off on the reference flight "
+                                      "%.2fx",
+                                      n.get("rs.flights.wobble_ratio_worst"),
+                                      n.text("rs.flights.wobble_ratio_worst_case").c_str(),
+                                      n.get("rs.flights.wobble_ratio_mean"), n.get("rs.flights.off_wobble_ratio_mean")),
+                               verdict(true, n.get("rs.flights.wobble_ratio_worst") <= 0.3)});
+            targets.push_back({"rolling shutter (synthetic flights): shake left <= 1.5x the same flight's from a global "
+                               "shutter, every flight, seed and delay",
+                               format("worst %.2fx (%s); mean %.2fx", n.get("rs.flights.shake_ratio_worst"),
+                                      n.text("rs.flights.shake_ratio_worst_case").c_str(),
+                                      n.get("rs.flights.shake_ratio_mean")),
+                               verdict(true, n.get("rs.flights.shake_ratio_worst") <= 1.5)});
+            targets.push_back({"(no target) rolling shutter (synthetic flights): coverage min (of output_to_input; "
+                               "ignores the row offsets) and picture min (1 - black pixels)",
+                               format("%.4f, %.4f", n.get("rs.flights.coverage_min"), n.get("rs.flights.picture_min")),
+                               "reported"});
+        }
+        if (n.has("rs.still.syn.jitter_diff_worst"))
+            targets.push_back({"rolling shutter auto on global-shutter flights (with and without vibration): residual "
+                               "jitter within 5 % of off",
+                               format("worst %.1f %%; frames corrected %.0f of %.0f",
+                                      100 * n.get("rs.still.syn.jitter_diff_worst"), n.get("rs.still.syn.corrected"),
+                                      n.get("rs.still.syn.frames")),
+                               verdict(true, n.get("rs.still.syn.jitter_diff_worst") <= 0.05)});
+        if (n.has("rs.still.real.low_wobble_clips")) {
+            const double clips = n.get("rs.still.real.low_wobble_clips");
+            const std::string failed = n.text("rs.still.real.low_wobble_failed");
+            targets.push_back({"rolling shutter auto on real clips whose input wobble < 0.2 px: ITF within 0.1 dB of "
+                               "off (delays 20 and 0)",
+                               clips > 0 ? format("%.0f clips, worst |auto - off| %.3f dB%s", clips,
+                                                  n.get("rs.still.real.low_wobble_itf_diff_worst"),
+                                                  failed.empty() ? "" : ("; beyond: " + failed).c_str())
+                                         : "no clip below 0.2 px",
+                               clips > 0 ? verdict(true, failed.empty()) : "not measured"});
+        }
+        if (n.has("rs.still.ardrone.wobble_in")) {
+            const double in = n.get("rs.still.ardrone.wobble_in");
+            std::string measured;
+            bool met = true;
+            for (int d : {20, 0}) {
+                const std::string k = format("rs.still.ardrone.d%d.", d);
+                const double out = n.get(k + "wobble_out"), itf = n.get(k + "itf_minus_off");
+                measured += format("%sd%d: wobble %.3f -> %.3f px (%.2fx; off %.3f), ITF auto - off %+.3f dB, %.0f of "
+                                   "%.0f frames corrected",
+                                   measured.empty() ? "" : "; ", d, in, out, out / in, n.get(k + "wobble_out_off"),
+                                   itf, n.get(k + "corrected"), n.get("rs.still.ardrone.frames"));
+                met = met && out <= 0.5 * in && itf >= 0.0;
+            }
+            targets.push_back({"rolling shutter auto on the AR.Drone clip: wobble out <= 0.5x in, ITF no lower than off",
+                               measured, verdict(true, met)});
+        }
+        for (const auto &[key, what, limit] :
+             {std::tuple<const char *, const char *, double>{"gs", "a global-shutter flight (nothing to correct): within "
+                                                                   "5 % of off", 1.05},
+              {"rs", "a rolling-shutter flight (80 %, 47 Hz): at most +25 % over off", 1.25}}) {
+            const std::string k = std::string("rs.cost.") + key;
+            if (!n.has(k + ".ratio"))
+                continue;
+            const double r = n.get(k + ".ratio");
+            targets.push_back({format("rolling shutter auto, CPU per frame at 1080p on one thread, %s", what),
+                               format("%.2f vs %.2f ms (%+.1f %%; estimation %.2f vs %.2f, warp %.2f vs %.2f); other "
+                                      "processes %.0f %%",
+                                      n.get(k + ".total_ms_auto"), n.get(k + ".total_ms_off"), 100 * (r - 1),
+                                      n.get(k + ".estimate_ms_auto"), n.get(k + ".estimate_ms_off"),
+                                      n.get(k + ".warp_ms_auto"), n.get(k + ".warp_ms_off"), 100 * n.get(k + ".others")),
+                               verdict(true, std::string(key) == "gs" ? std::abs(r - 1) <= limit - 1 : r <= limit)});
+        }
         {
             const double g = n.get("memory.long.growth_mib"), f = n.get("memory.long.frames");
             targets.push_back({format("memory flat over %s frames (320x240): RSS growth from 10k to the end <= 1 MiB",
@@ -363,6 +436,19 @@ int main(int argc, char **argv)
         const std::string path = readFile(o.out_dir + "/quality_path.md");
         if (!path.empty())
             r << "### The planners alone (perfect motion estimates)\n\n" << path;
+        // Issue 21: what the rolling-shutter correction removes, leaves alone and costs.
+        const std::string rs_flights = readFile(o.out_dir + "/rs_flights.md");
+        const std::string rs_still = readFile(o.out_dir + "/rs_still.md");
+        const std::string rs_cost = readFile(o.out_dir + "/rs_cost.md");
+        if (!rs_flights.empty() || !rs_still.empty() || !rs_cost.empty()) {
+            r << "## Rolling shutter\n\n";
+            if (!rs_flights.empty())
+                r << "### Synthetic rolling-shutter flights\n\n" << rs_flights;
+            if (!rs_still.empty())
+                r << "### Footage without wobble: auto vs off\n\n" << rs_still;
+            if (!rs_cost.empty())
+                r << "### Cost at 1080p\n\n" << rs_cost;
+        }
         const std::string reliability = readFile(o.out_dir + "/reliability.md");
         if (!reliability.empty())
             r << "## Reliability\n\n" << reliability;

@@ -2,12 +2,12 @@
 # The benchmark of uavstabilize: throughput, latency, memory and quality of the library and
 # the GStreamer element, beside ffmpeg's deshake and vid.stab on the same frames.
 #
-#   bash tests/bench/run.sh            # full run (~45-50 min on 2 cores, quality ~20 of it); updates tests/bench/REPORT.md + PNGs
+#   bash tests/bench/run.sh            # full run (~55-60 min on 2 cores, quality ~20 of it, rolling shutter ~10); updates tests/bench/REPORT.md + PNGs
 #   bash tests/bench/run.sh --quick    # fewer runs/resolutions/clips (~3-5 min); report in the out dir only
 #
 # Options: --out DIR (default build-bench/bench-out), --no-wait (do not wait for a quiet
 # machine), --no-build (use the build dir as it is), --only PROGRAM (speed, element, memory,
-# quality, path, streams; repeatable; the report is still assembled from whatever the out dir holds,
+# quality, path, rs, streams; repeatable; the report is still assembled from whatever the out dir holds,
 # under the header of the run that made it, with a line saying what was re-run).
 # Uses its own build dir, build-bench (UAVSTAB_BENCH_BUILD_DIR overrides). Real clips are
 # read from ../shared/data (relative to the repository) when present and skipped when not.
@@ -124,6 +124,10 @@ if wants path; then
     "$bin/uavstab-bench-path" --planner l1 --planner optimal --planner gaussian --seeds 3 --strengths 0.5,1,2 \
       --out "$out/quality_path.md" >/dev/null
   fi
+fi
+if wants rs; then
+  step "rolling shutter (issue 21)"
+  "$bin/uavstab-bench-rolling-shutter" --out "$out" --data "$data" "${quick[@]}"
 fi
 if wants streams; then
   step "live streams at once"
