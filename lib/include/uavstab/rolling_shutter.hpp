@@ -53,7 +53,7 @@ public:
         // below `threshold` px RMS (at 640 px of width; it grows with the frame), full at
         // twice that. The residual is averaged over about `settle` frames.
         bool automatic = true;
-        double threshold = 0.15;
+        double threshold = 0.3;
         int settle = 15;
         // Each frame keeps this share of the previous frame's offsets before adding its
         // own differences: an estimation error fades over some ten frames.
