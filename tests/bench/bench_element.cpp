@@ -1,7 +1,7 @@
 // Speed and latency of the uavstabilize element in a pipeline:
 //   appsrc (frames made in memory beforehand) ! uavstabilize ! fakesink sync=false
 //
-//   uavstab-bench-element --out DIR [--quick] [--resolution WxH]... [--only throughput|latency]...
+//   uavstab-bench-element --out DIR [--quick] [--resolution WxH]... [--only throughput|latency|affine-meta]...
 #include <algorithm>
 #include <cmath>
 #include <iostream>
@@ -16,9 +16,12 @@ using namespace bench;
 
 namespace {
 
-double elementRun(const GstFrames &frames, long pushes, int threads, std::string *error)
+// Frames/s of one run; `render` is the element's render property (warp: every frame must come
+// out warped; affine-meta: every frame is the input with the meta, none warped).
+double elementRun(const GstFrames &frames, long pushes, int threads, std::string *error,
+                  const std::string &render = "warp")
 {
-    ElementRun run(frames, "threads=" + std::to_string(threads));
+    ElementRun run(frames, "threads=" + std::to_string(threads) + " render=" + render);
     run.start();
     const auto t0 = Clock::now();
     for (long k = 0; k < pushes; ++k)
@@ -29,12 +32,61 @@ double elementRun(const GstFrames &frames, long pushes, int threads, std::string
         *error = ok ? format("received %ld of %ld frames", run.received(), pushes) : run.error();
         return std::nan("");
     }
-    if (run.passedThrough() > 0) {
-        *error =
-            format("%ld of %ld frames came out unwarped (input buffer passed through)", run.passedThrough(), pushes);
+    const long expected_unwarped = render == "affine-meta" ? pushes : 0;
+    if (run.passedThrough() != expected_unwarped) {
+        *error = format("%ld of %ld frames came out unwarped (input buffer passed through), %ld expected",
+                        run.passedThrough(), pushes, expected_unwarped);
         return std::nan("");
     }
     return double(pushes) / s;
+}
+
+// render=affine-meta (no warp: the input goes downstream with a GstVideoAffineTransformationMeta
+// for a GL element to draw) against render=warp, runs alternated in one process.
+void sectionAffineMeta(const Options &o, const std::vector<ResolutionPlan> &plans,
+                       std::map<std::string, std::vector<cv::Mat>> &bgr)
+{
+    Fragment frag(o, "speed_affine_meta");
+    const int runs = o.quick ? 3 : 5;
+    frag.text(format("Zero-copy mode: `appsrc ! uavstabilize threads=2 render=affine-meta ! fakesink` (no warp, the input "
+                     "buffer goes downstream with its GstVideoAffineTransformationMeta) against `render=warp`, I420, "
+                     "runs alternated, median (min-max) of %d runs each after a warm-up. Target (issue 22): "
+                     "affine-meta >= 3x the warp's frames/s at 1920x1080.",
+                     runs));
+    Table t({"resolution", "warp fps", "affine-meta fps", "affine-meta / warp", "other processes"});
+    for (const ResolutionPlan &p : plans) {
+        const GstFrames frames(framesFromBgr(bgr[p.res.name()], PixelFormat::I420), 30);
+        std::string error;
+        std::vector<double> warp, meta, ratio;
+        const double others = measureQuietly("affine-meta " + p.res.name(), [&] {
+            warp.clear();
+            meta.clear();
+            ratio.clear();
+            elementRun(frames, std::min<long>(p.pushes / 2, 60), 2, &error, "affine-meta");  // warm-up
+            for (int r = 0; r < runs && error.empty(); ++r) {
+                const double w = elementRun(frames, p.pushes, 2, &error, "warp");
+                const double m = error.empty() ? elementRun(frames, p.pushes, 2, &error, "affine-meta") : 0.0;
+                if (error.empty()) {
+                    warp.push_back(w);
+                    meta.push_back(m);
+                    ratio.push_back(m / w);
+                }
+            }
+        });
+        if (!error.empty()) {
+            frag.text(format("**Element run failed** at %s: %s", p.res.name().c_str(), error.c_str()));
+            continue;
+        }
+        t.row({p.res.name(), spread(warp, "%.0f"), spread(meta, "%.0f"), format("%.2fx", median(ratio)),
+               loadCell(others)});
+        const std::string key = format("element.affine_meta.%s", p.res.name().c_str());
+        putResult(o, key + ".fps", median(meta));
+        putResult(o, key + ".warp_fps", median(warp));
+        putResult(o, key + ".ratio", median(ratio));
+        std::printf("  affine-meta %s: %s fps vs warp %s fps (%.2fx)\n", p.res.name().c_str(), spread(meta).c_str(),
+                    spread(warp).c_str(), median(ratio));
+    }
+    frag.table(t);
 }
 
 void sectionThroughput(const Options &o, const std::vector<ResolutionPlan> &plans,
@@ -158,7 +210,7 @@ int main(int argc, char **argv)
     try {
         std::string why;
         const bool ok = initElement(&argc, &argv, &why);
-        const Options o = parseOptions(argc, argv, "usage: uavstab-bench-element --out DIR [--quick] [--only throughput|latency]...\n");
+        const Options o = parseOptions(argc, argv, "usage: uavstab-bench-element --out DIR [--quick] [--only throughput|latency|affine-meta]...\n");
         if (!ok) {
             Fragment a(o, "speed_element"), b(o, "latency_element");
             a.text("Element throughput: skipped: " + why + ".");
@@ -174,6 +226,8 @@ int main(int argc, char **argv)
             sectionThroughput(o, plans, bgr);
         if (o.wants("latency"))
             sectionLatency(o, plans, bgr);
+        if (o.wants("affine-meta"))
+            sectionAffineMeta(o, plans, bgr);
     } catch (const std::exception &e) {
         std::cerr << "uavstab-bench-element: " << e.what() << "\n";
         return 1;
