@@ -96,42 +96,18 @@ Clip syntheticClip(int width, int height, std::uint32_t seed, int objects, int f
     return c;
 }
 
-struct ProbeInfo {
-    int width = 0, height = 0, fps_num = 0, fps_den = 1;
-};
-
-ProbeInfo probe(const std::string &path)
-{
-    ProbeInfo p;
-    const std::string out = commandOutput("ffprobe -v error -select_streams v:0 -show_entries "
-                                          "stream=width,height,avg_frame_rate -of csv=p=0 " +
-                                          shellQuote(path) + " 2>/dev/null");
-    std::sscanf(out.c_str(), "%d,%d,%d/%d", &p.width, &p.height, &p.fps_num, &p.fps_den);
-    if (p.fps_num <= 0 || p.fps_den <= 0) {
-        p.fps_num = 30;
-        p.fps_den = 1;
-    }
-    return p;
-}
-
 // Decodes up to max_frames frames of a real clip to I420 in memory.
 bool decodeClip(const std::string &path, int max_frames, Clip *c)
 {
-    const ProbeInfo p = probe(path);
-    if (p.width <= 0 || p.height <= 0)
+    DecodedClip d;
+    if (!decodeI420(path, max_frames, &d))
         return false;
-    c->width = p.width;
-    c->height = p.height;
-    c->fps_num = p.fps_num;
-    c->fps_den = p.fps_den;
-    RawPipeReader reader("ffmpeg -hide_banner -loglevel error -nostdin -i " + shellQuote(path) +
-                             format(" -frames:v %d -fps_mode passthrough -f rawvideo -pix_fmt yuv420p -", max_frames),
-                         p.width, p.height);
-    FrameBuffer f;
-    while (int(c->frames.size()) < max_frames && reader.read(f))
-        c->frames.push_back(f);
-    reader.close();
-    return c->frames.size() >= 10;
+    c->width = d.width;
+    c->height = d.height;
+    c->fps_num = d.fps_num;
+    c->fps_den = d.fps_den;
+    c->frames = std::move(d.frames);
+    return true;
 }
 
 // The steady drone clip with a known shake: shaky(q) = steady(J_i(q)), J_i = zoom * shake_i
@@ -373,16 +349,6 @@ std::vector<Features> featuresOf(const std::vector<cv::Mat> &luma)
             f[std::size_t(i)] = extractor.extract(luma[std::size_t(i)]);
     });
     return f;
-}
-
-double psnrCentral(const cv::Mat &a, const cv::Mat &b)
-{
-    const cv::Rect r(int(a.cols * 0.2), int(a.rows * 0.2), int(a.cols * 0.6), int(a.rows * 0.6));
-    cv::Mat diff;
-    cv::absdiff(a(r), b(r), diff);
-    diff.convertTo(diff, CV_64F);
-    const double mse = cv::mean(diff.mul(diff))[0];
-    return mse <= 1e-10 ? 100.0 : std::min(100.0, 10.0 * std::log10(255.0 * 255.0 / mse));
 }
 
 // Share of spectral energy in bins 1..5 among bins 1..n/2 (one-sided, DC excluded).
@@ -1380,9 +1346,11 @@ void sectionReal(const Options &o, const std::vector<Method> &ms)
     if (o.quick) {
         // Three clips no wider than 1280 (the 1080p drone clip is in the drone section).
         std::vector<std::string> small;
-        for (const std::string &f : files)
-            if (small.size() < 3 && probe(o.data_dir + "/" + f).width <= 1280)
+        for (const std::string &f : files) {
+            DecodedClip info;
+            if (small.size() < 3 && probeVideo(o.data_dir + "/" + f, &info) && info.width <= 1280)
                 small.push_back(f);
+        }
         files = small;
     }
     frag.text(format(

@@ -120,30 +120,17 @@ Footage renderFlight(int width, int height, int frames, std::uint32_t seed, doub
     return f;
 }
 
-int probeSize(const std::string &path, int *width, int *height, double *fps)
-{
-    int num = 0, den = 1;
-    const std::string out = commandOutput("ffprobe -v error -select_streams v:0 -show_entries "
-                                          "stream=width,height,avg_frame_rate -of csv=p=0 " +
-                                          shellQuote(path) + " 2>/dev/null");
-    std::sscanf(out.c_str(), "%d,%d,%d/%d", width, height, &num, &den);
-    *fps = num > 0 && den > 0 ? double(num) / den : 30.0;
-    return *width > 0 && *height > 0;
-}
-
 // The first max_frames frames of a real clip, as I420 in memory (as bench_quality decodes them).
 bool decodeClip(const std::string &path, int max_frames, Footage *f)
 {
-    if (!probeSize(path, &f->width, &f->height, &f->fps))
+    DecodedClip d;
+    if (!decodeI420(path, max_frames, &d))
         return false;
-    RawPipeReader reader("ffmpeg -hide_banner -loglevel error -nostdin -i " + shellQuote(path) +
-                             format(" -frames:v %d -fps_mode passthrough -f rawvideo -pix_fmt yuv420p -", max_frames),
-                         f->width, f->height);
-    FrameBuffer frame;
-    while (int(f->frames.size()) < max_frames && reader.read(frame))
-        f->frames.push_back(frame);
-    reader.close();
-    return f->frames.size() >= 10;
+    f->width = d.width;
+    f->height = d.height;
+    f->fps = double(d.fps_num) / d.fps_den;
+    f->frames = std::move(d.frames);
+    return true;
 }
 
 // ---- one run of the stabilizer -------------------------------------------------------------
@@ -159,17 +146,6 @@ struct Run {
     double reported = 0.0;        // mean row_motion.wobble over the corrected frames
     int unwarped = 0;
 };
-
-// PSNR (dB) between two lumas over their central 60 % (bench_quality's ITF).
-double psnrCentral(const cv::Mat &a, const cv::Mat &b)
-{
-    const cv::Rect r(int(a.cols * 0.2), int(a.rows * 0.2), int(a.cols * 0.6), int(a.rows * 0.6));
-    cv::Mat diff;
-    cv::absdiff(a(r), b(r), diff);
-    diff.convertTo(diff, CV_64F);
-    const double mse = cv::mean(diff.mul(diff))[0];
-    return mse <= 1e-10 ? 100.0 : std::min(100.0, 10.0 * std::log10(255.0 * 255.0 / mse));
-}
 
 StabilizerConfig configFor(RollingShutter mode, int delay, int threads = 2)
 {

@@ -588,4 +588,42 @@ int RawPipeReader::close()
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+bool probeVideo(const std::string &path, DecodedClip *clip)
+{
+    const std::string out = commandOutput("ffprobe -v error -select_streams v:0 -show_entries "
+                                          "stream=width,height,avg_frame_rate -of csv=p=0 " +
+                                          shellQuote(path) + " 2>/dev/null");
+    int num = 0, den = 1;
+    std::sscanf(out.c_str(), "%d,%d,%d/%d", &clip->width, &clip->height, &num, &den);
+    if (clip->width <= 0 || clip->height <= 0)
+        return false;
+    clip->fps_num = num > 0 && den > 0 ? num : 30;
+    clip->fps_den = num > 0 && den > 0 ? den : 1;
+    return true;
+}
+
+bool decodeI420(const std::string &path, int max_frames, DecodedClip *clip)
+{
+    if (!probeVideo(path, clip))
+        return false;
+    RawPipeReader reader("ffmpeg -hide_banner -loglevel error -nostdin -i " + shellQuote(path) +
+                             format(" -frames:v %d -fps_mode passthrough -f rawvideo -pix_fmt yuv420p -", max_frames),
+                         clip->width, clip->height);
+    uavstab::FrameBuffer frame;
+    while (int(clip->frames.size()) < max_frames && reader.read(frame))
+        clip->frames.push_back(frame);
+    reader.close();
+    return clip->frames.size() >= 10;
+}
+
+double psnrCentral(const cv::Mat &a, const cv::Mat &b)
+{
+    const cv::Rect r(int(a.cols * 0.2), int(a.rows * 0.2), int(a.cols * 0.6), int(a.rows * 0.6));
+    cv::Mat diff;
+    cv::absdiff(a(r), b(r), diff);
+    diff.convertTo(diff, CV_64F);
+    const double mse = cv::mean(diff.mul(diff))[0];
+    return mse <= 1e-10 ? 100.0 : std::min(100.0, 10.0 * std::log10(255.0 * 255.0 / mse));
+}
+
 } // namespace bench

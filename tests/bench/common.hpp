@@ -232,4 +232,18 @@ private:
     int width_, height_;
 };
 
+// ---- real clips -----------------------------------------------------------------------
+struct DecodedClip {
+    int width = 0, height = 0, fps_num = 30, fps_den = 1;
+    std::vector<uavstab::FrameBuffer> frames;  // I420
+};
+// A video file's size and frame rate (ffprobe), no frames; false when it cannot be read.
+bool probeVideo(const std::string &path, DecodedClip *clip);
+// The first max_frames frames of a video file, decoded by ffmpeg to I420 in memory; false
+// when it cannot be read or has fewer than 10 frames.
+bool decodeI420(const std::string &path, int max_frames, DecodedClip *clip);
+// PSNR (dB) between two lumas over their central 60 %: the term of the ITF (inter-frame
+// transformation fidelity) of consecutive output frames.
+double psnrCentral(const cv::Mat &a, const cv::Mat &b);
+
 } // namespace bench
