@@ -66,7 +66,10 @@ RollingShutterEstimator::Settings MotionEstimator::rollingShutterSettings() cons
 
 void MotionEstimator::setFrameInterval(double milliseconds)
 {
-    frame_interval_ms_ = milliseconds > 0.0 && std::isfinite(milliseconds) ? milliseconds : 0.0;
+    const double interval = milliseconds > 0.0 && std::isfinite(milliseconds) ? milliseconds : 0.0;
+    if (interval == frame_interval_ms_)
+        return;  // the element tells it every frame
+    frame_interval_ms_ = interval;
     rolling_shutter_.setSettings(rollingShutterSettings());
 }
 
