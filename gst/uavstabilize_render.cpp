@@ -128,7 +128,7 @@ GstBuffer *warpLeftUnwarpedFrame(GstUavStabilize *self, UavStabilizeState &s, ua
     const uavstab::FrameView in = slot.input();
     const uavstab::FrameView out = slot.adoptOutput(buffer);
     uavstab::FrameWarper(border).warp(
-        in, out, uavstab::rollingShutterWarp(frame.stats.output_to_input, frame.stats.row_motion, in.height));
+        in, out, uavstab::rollingShutterWarp(frame.stats.output_to_input, frame.stats.row_motion, in.width, in.height));
     GstBuffer *warped = slot.releaseOutput();
     mapRegionsOfInterest(slot.inputBuffer(), warped, frame.stats.output_to_input, in.width, in.height);
     return warped;

@@ -67,19 +67,43 @@ std::array<double, 6> RowMatrices::at(double y) const
     return m;
 }
 
-RowTransforms rollingShutterWarp(const Similarity &output_to_input, const RowMotion &rows, int height)
+RowTransforms rollingShutterWarp(const Similarity &output_to_input, const RowMotion &rows, int width, int height)
 {
     if (rows.empty() || height < 2)
         return RowTransforms(output_to_input);
     constexpr int kAnchors = 24;  // intervals: the offsets vary smoothly over 12 bands
     std::vector<double> anchors;
     std::vector<Similarity> transforms;
-    const double centre = 0.5 * (height - 1);
+    const double half_w = 0.5 * (width - 1), half_h = 0.5 * (height - 1);
+    // Whether both ends of output row y (centred) read inside the input frame.
+    const auto inside = [&](const Similarity &t, double y) {
+        for (double x : {-half_w, half_w}) {
+            const Point2 p = t.apply({x, y});
+            if (std::abs(p.x) > half_w || std::abs(p.y) > half_h)
+                return false;
+        }
+        return true;
+    };
     for (int j = 0; j <= kAnchors; ++j) {
         const double y = (height - 1) * double(j) / kAnchors;
-        const double input_row = output_to_input.apply({0.0, y - centre}).y;
+        const double input_row = output_to_input.apply({0.0, y - half_h}).y;
+        const Similarity offset = rows.at(input_row);
+        const auto scaled = [&](double f) {
+            return Similarity{f * offset.dx, f * offset.dy, f * offset.angle, 1.0} * output_to_input;
+        };
+        // The crop room bounds the correction as it bounds the stabilizing one: a row
+        // offset that would read past the input's edge is shortened until it does not.
+        Similarity t = scaled(1.0);
+        if (!inside(t, y - half_h) && inside(output_to_input, y - half_h)) {
+            double lo = 0.0, hi = 1.0;
+            for (int k = 0; k < 12; ++k) {
+                const double mid = 0.5 * (lo + hi);
+                (inside(scaled(mid), y - half_h) ? lo : hi) = mid;
+            }
+            t = scaled(lo);
+        }
         anchors.push_back(y);
-        transforms.push_back(rows.at(input_row) * output_to_input);
+        transforms.push_back(t);
     }
     return RowTransforms(std::move(anchors), std::move(transforms));
 }

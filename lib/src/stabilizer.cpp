@@ -280,7 +280,8 @@ void Stabilizer::planAndWarp(PlanJob &job)
         stats.correction_fraction = planned.correction_fraction;
         stats.output_to_input = planned.output_to_input;
         if (!stats.row_motion.empty() && pending->input.height > 1)
-            pending->rows = rollingShutterWarp(stats.output_to_input, stats.row_motion, pending->input.height);
+            pending->rows = rollingShutterWarp(stats.output_to_input, stats.row_motion, pending->input.width,
+                                               pending->input.height);
     } catch (const std::exception &e) {
         planner_.reset();  // start afresh with the next frame
         std::lock_guard<std::mutex> lock(mutex_);

@@ -184,24 +184,48 @@ TEST(RollingShutter, FewTracksOrNoneGiveNoCorrectionAndNoCrash)
 
 TEST(RollingShutter, TheWarpSamplesEachRowWhereItsInputRowWasCaptured)
 {
-    // Rows bent by a shift that grows down the frame; a stabilizing transform that moves
-    // the picture down by 10 px (output row y reads input row y + 10).
+    // Rows bent by a shift that grows down the frame; a stabilizing transform that zooms in
+    // (0.9) and moves the picture down by 10 px.
     RowMotion rows;
     for (int b = 0; b < 4; ++b) {
         rows.rows.push_back(-270.0 + 180.0 * b);
         rows.offsets.push_back({0.5 * b, 0.0, 0.0, 1.0});
     }
-    const Similarity down{0.0, 10.0, 0.0, 1.0};
-    const RowTransforms warp = rollingShutterWarp(down, rows, kHeight);
+    const Similarity stabilizing{0.0, 10.0, 0.0, 0.9};
+    const RowTransforms warp = rollingShutterWarp(stabilizing, rows, kWidth, kHeight);
     ASSERT_FALSE(warp.isConstant());
     const RowMatrices matrices(warp, kWidth, kHeight);
+    const double cx = 0.5 * (kWidth - 1), cy = 0.5 * (kHeight - 1);
     for (double y : {0.0, 100.0, 359.5, 600.0, 719.0}) {
-        const double input_row = y - 0.5 * (kHeight - 1) + 10.0;  // centred
+        const double input_row = 0.9 * (y - cy) + 10.0;  // centred
         const std::array<double, 6> m = matrices.at(y);
-        // x: the output pixel plus the offset at the input row (to within the anchors' linear
-        // interpolation); y: 10 px further down.
-        EXPECT_NEAR(m[2], rows.at(input_row).dx, 0.01) << "row " << y;
-        EXPECT_NEAR(m[5], 10.0, 1e-9) << "row " << y;
+        // The middle column: the offset at the input row (to within the anchors' linear
+        // interpolation), on the row the stabilizing transform reads.
+        EXPECT_NEAR(m[0] * cx + m[1] * y + m[2], cx + rows.at(input_row).dx, 0.01) << "row " << y;
+        EXPECT_NEAR(m[3] * cx + m[4] * y + m[5], cy + input_row, 1e-9) << "row " << y;
     }
-    EXPECT_TRUE(rollingShutterWarp(down, RowMotion{}, kHeight).isConstant());
+    EXPECT_TRUE(rollingShutterWarp(stabilizing, RowMotion{}, kWidth, kHeight).isConstant());
+}
+
+TEST(RollingShutter, TheWarpKeepsEveryRowInsideTheInput)
+{
+    // An offset far larger than the crop room: every anchor row still reads inside.
+    RowMotion rows;
+    rows.rows = {-300.0, 300.0};
+    rows.offsets = {{-100.0, 0.0, 0.0, 1.0}, {100.0, 40.0, 0.0, 1.0}};
+    const Similarity zoom{0.0, 0.0, 0.0, 0.92};
+    const RowTransforms warp = rollingShutterWarp(zoom, rows, kWidth, kHeight);
+    const RowMatrices matrices(warp, kWidth, kHeight);
+    for (double y : warp.anchorRows()) {
+        const std::array<double, 6> m = matrices.at(y);
+        for (double x : {0.0, double(kWidth - 1)}) {
+            const double sx = m[0] * x + m[1] * y + m[2], sy = m[3] * x + m[4] * y + m[5];
+            EXPECT_GE(sx, -1e-6) << "row " << y;
+            EXPECT_LE(sx, kWidth - 1 + 1e-6) << "row " << y;
+            EXPECT_GE(sy, -1e-6) << "row " << y;
+            EXPECT_LE(sy, kHeight - 1 + 1e-6) << "row " << y;
+        }
+    }
+    // ...and a shortened offset still bends the rows (towards the room's edge).
+    EXPECT_FALSE(warp.isConstant());
 }

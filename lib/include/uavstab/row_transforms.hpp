@@ -51,8 +51,9 @@ private:
 
 // The warp that also undoes a frame's rolling shutter: each output row samples the input
 // where the frame captured the point the stabilizing transform maps it to (the row offset
-// at that input row); anchored at 25 output rows, linear in between. A frame `height` rows
-// high; empty `rows`: output_to_input at every row.
-RowTransforms rollingShutterWarp(const Similarity &output_to_input, const RowMotion &rows, int height);
+// at that input row); anchored at 25 output rows, linear in between. Where a row's offset
+// would make it read past the input's edge it is shortened (the crop room bounds it). A
+// frame of width x height; empty `rows`: output_to_input at every row.
+RowTransforms rollingShutterWarp(const Similarity &output_to_input, const RowMotion &rows, int width, int height);
 
 } // namespace uavstab
