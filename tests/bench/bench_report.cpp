@@ -345,6 +345,11 @@ int main(int argc, char **argv)
                                          : "no clip below 0.2 px",
                                clips > 0 ? verdict(true, failed.empty()) : "not measured"});
         }
+        if (n.has("rs.still.real.picture_lost_worst"))
+            targets.push_back({"(no target) rolling shutter auto on the real clips: black pixels let in beyond off's "
+                               "(picture min of off - of auto, worst clip and delay; the quality section's coverage "
+                               "comes from registering one similarity to the output, which per-row warps bend)",
+                               format("%.4f", n.get("rs.still.real.picture_lost_worst")), "reported"});
         if (n.has("rs.still.ardrone.wobble_in")) {
             const double in = n.get("rs.still.ardrone.wobble_in");
             std::string measured;

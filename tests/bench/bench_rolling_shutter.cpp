@@ -467,13 +467,16 @@ void sectionStillReal(const Options &o, Fragment &frag)
         "Real clips from ../shared/data (first %d frames; the AR.Drone clip 240), auto vs off at delays 20 and 0. **Wobble** as above "
         "(px at the clip's size). **ITF** = mean PSNR (dB) between consecutive output frames over the central 60 %% "
         "of the luma, higher = steadier. **Corrected** = frames auto moved the rows of, with the mean wobble it "
-        "reported for them. Targets: on clips whose input wobble is below 0.2 px, ITF within 0.1 dB of off; on the "
+        "reported for them. **Picture min** = 1 - the share of black (luma 16) output pixels, worst frame, auto / "
+        "off: borders let in by the bent rows would lower it (dark picture counts too, alike in both). Targets: on "
+        "clips whose input wobble is below 0.2 px, ITF within 0.1 dB of off; on the "
         "AR.Drone clip (%s), wobble out <= 0.5x in and ITF no lower than off.",
         max_frames, kArDrone));
     Table t({"clip", "wobble in px", "wobble out d20 auto / off", "ITF d20 auto / off dB", "auto - off d20",
-             "wobble out d0 auto / off", "ITF d0 auto / off dB", "auto - off d0", "corrected d20 (reported px)"});
+             "wobble out d0 auto / off", "ITF d0 auto / off dB", "auto - off d0", "corrected d20 (reported px)",
+             "picture min d20 auto / off", "picture min d0 auto / off"});
     int low_clips = 0;
-    double low_worst = 0;
+    double low_worst = 0, picture_lost = 0;
     std::string low_failed;
     for (const std::string &file : files) {
         Footage f;
@@ -501,7 +504,11 @@ void sectionStillReal(const Options &o, Fragment &frag)
                format("%.3f / %.3f", on[20].itf, off[20].itf), format("%+.3f", diff20),
                format("%.3f / %.3f", on[0].wobble_out, off[0].wobble_out),
                format("%.3f / %.3f", on[0].itf, off[0].itf), format("%+.3f", diff0),
-               format("%d of %zu (%.2f)", on[20].corrected, f.frames.size(), on[20].reported)});
+               format("%d of %zu (%.2f)", on[20].corrected, f.frames.size(), on[20].reported),
+               format("%.4f / %.4f", on[20].picture_min, off[20].picture_min),
+               format("%.4f / %.4f", on[0].picture_min, off[0].picture_min)});
+        for (int d : {20, 0})
+            picture_lost = std::max(picture_lost, off[d].picture_min - on[d].picture_min);
         const std::string key = "rs.still.real." + f.name;
         putResult(o, key + ".wobble_in", f.wobble_in);
         if (f.wobble_in < 0.2) {
@@ -524,6 +531,7 @@ void sectionStillReal(const Options &o, Fragment &frag)
     }
     frag.table(t);
     putResult(o, "rs.still.real.low_wobble_clips", low_clips);
+    putResult(o, "rs.still.real.picture_lost_worst", picture_lost);
     putResult(o, "rs.still.real.low_wobble_itf_diff_worst", low_worst);
     putResultText(o, "rs.still.real.low_wobble_failed", low_failed);
 }
