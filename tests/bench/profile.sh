@@ -102,25 +102,22 @@ cell() {  # a function or library name as a table cell: shortened, pipes escaped
 # function TAB library, best first) and $work/BUILD.dso (self % TAB library) and prints
 # "wall_s event".
 profile() {
-  local b=$1 t0 t1 data event samples
+  local b=$1 data event samples
   bench_with_plugin "${plugin[$b]}" gst-inspect-1.0 uavstabilize >/dev/null  # registry up to date first
-  t0=$(date +%s.%N)
   if [[ $tool == perf ]]; then
     data=$keep/profile-$b.data
     bench_with_plugin "${plugin[$b]}" perf record -q "${perf_event[@]}" -o "$data" -- \
-      gst-launch-1.0 -q "${pipeline[@]}" >/dev/null 2>"$work/$b.err" || { cat "$work/$b.err" >&2; return 1; }
-    t1=$(date +%s.%N)
+      gst-launch-1.0 "${pipeline[@]}" >"$work/$b.out" 2>"$work/$b.err" || { cat "$work/$b.err" >&2; return 1; }
     perf report -i "$data" --stdio --no-children --sort dso,sym -t $'\t' 2>/dev/null >"$work/$b.report"
     samples="$(awk '/^# Samples: / && !n++ { print $3 }' "$work/$b.report") samples"
     awk -F'\t' '!/^#/ && NF >= 3 {
         gsub(/^ +| +$/, "", $1); gsub(/^ +| +$/, "", $2); gsub(/^ +| +$/, "", $3)
         sub(/^\[[.k]\] /, "", $3); sub(/%$/, "", $1); print $1 "\t" $3 "\t" $2 }' "$work/$b.report" >"$work/$b.raw"
-    event=$(perf report -i "$data" --stdio --header-only 2>/dev/null | awk -F': ' '/^# event : name = / !n++ {split($2, a, ","); sub(/name = /, "", a[1]); print a[1]}')
+    event=$(perf report -i "$data" --stdio --header-only 2>/dev/null | awk -F': ' '/^# event : name = / && !n++ {split($2, a, ","); sub(/name = /, "", a[1]); print a[1]}')
   else
     data=$keep/callgrind.out.$b
     bench_with_plugin "${plugin[$b]}" valgrind --tool=callgrind --callgrind-out-file="$data" -q \
-      gst-launch-1.0 -q "${pipeline[@]}" >/dev/null 2>"$work/$b.err" || { cat "$work/$b.err" >&2; return 1; }
-    t1=$(date +%s.%N)
+      gst-launch-1.0 "${pipeline[@]}" >"$work/$b.out" 2>"$work/$b.err" || { cat "$work/$b.err" >&2; return 1; }
     # "1,234,567 (12.34%)  file:function [library]", self cost per function, best first.
     callgrind_annotate --inclusive=no --threshold=100 "$data" 2>/dev/null |
       sed -nE 's/^ *[0-9,]+ \( *([0-9.]+)%\)  (.*) \[(.*)\]$/\1\t\2\t\3/p' |
@@ -137,7 +134,9 @@ profile() {
     END { for (k in s) printf "%.2f\t%s\n", s[k], k }' "$work/$b.raw" | sort -t$'\t' -k1,1gr >"$work/$b.fun"
   awk -F'\t' '{ d = $3; sub(/.*\//, "", d); s[d] += $1 } END { for (d in s) printf "%.2f\t%s\n", s[d], d }' \
     "$work/$b.raw" | sort -t$'\t' -k1,1gr >"$work/$b.dso"
-  awk -v a="$t1" -v b="$t0" -v e="$event" 'BEGIN { printf "%.2f %s", a - b, e }' >"$work/$b.info"
+  # PLAYING to EOS as gst-launch-1.0 reports it: "Execution ended after 0:00:02.345678901"
+  awk -v e="$event" '/^Execution ended after / { split($4, t, ":"); s = t[1] * 3600 + t[2] * 60 + t[3] }
+    END { printf "%.2f %s", s, e }' "$work/$b.out" >"$work/$b.info"
   echo "${samples:-?}" >"$work/$b.samples"
 }
 
@@ -189,7 +188,7 @@ done < <(for b in "${builds[@]}"; do head -8 "$work/$b.dso"; done | awk -F'\t' '
 
 runs=""
 for b in "${builds[@]}"; do
-  runs+="${runs:+; }${label[$b]}: ${samples[$b]}, ${wall[$b]} s under the profiler ($(awk -v t="${wall[$b]}" -v f="$frames" 'BEGIN { printf "%.1f", 1000 * t / f }') ms per frame, start-up included)"
+  runs+="${runs:+; }${label[$b]}: ${samples[$b]}, ${wall[$b]} s from PLAYING to EOS under the profiler ($(awk -v t="${wall[$b]}" -v f="$frames" 'BEGIN { printf "%.1f", 1000 * t / f }') ms per frame)"
 done
 if [[ $tool == perf ]]; then
   how="\`perf record\` (event ${event[this]}, all threads of the gst-launch-1.0 process), self time per function (\`perf report --no-children\`)"
