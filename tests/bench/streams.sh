@@ -15,7 +15,8 @@
 # those N, then the same bisection); 720p: 4 streams. --base REV: REV's plugin too (built in
 # build-bench/ab/SHA as ab.sh does), its run next to this tree's for every N, which goes
 # first alternating, and the ratio of the two counts. Writes DIR/streams.md and summary
-# lines (streams.*) to DIR/summary.tsv. ~5 min alone; ~10-12 min with --base (S = 10).
+# lines (streams.*) to DIR/summary.tsv. ~6 min alone; ~10-12 min with --base (S = 10; fewer
+# steps on a busy machine, where the counts are lower).
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 bench_repo=$repo
@@ -37,7 +38,7 @@ while [[ $# -gt 0 ]]; do
     --counts) counts=$2; shift ;;
     --max) max_n=$2; shift ;;
     --retries) retries=$2; shift ;;
-    -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
     *) echo "streams.sh: unknown option $1" >&2; exit 2 ;;
   esac
   shift
