@@ -15,7 +15,8 @@ test=(libgtest-dev gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1
       gstreamer1.0-gl libegl-mesa0 libgl1-mesa-dri libglx-mesa0 xvfb xauth)
 demo=(gstreamer1.0-plugins-base-apps gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-plugins-ugly gstreamer1.0-libav)
 fuzz=(clang libclang-rt-14-dev)
-bench=(ffmpeg libopencv-features2d-dev libopencv-calib3d-dev gstreamer1.0-libav time)
+bench=(ffmpeg libopencv-features2d-dev libopencv-calib3d-dev gstreamer1.0-libav time
+       linux-perf valgrind)  # tests/bench/profile.sh: perf record, callgrind where perf cannot sample
 
 groups=("$@")
 [[ ${#groups[@]} -gt 0 ]] || groups=(build test)

@@ -6,14 +6,20 @@
 #
 #   bash tests/bench/ab.sh --base REV [--rounds N] [--resolution WxH]...
 #
-# Builds REV's plugin in build-bench/ab/REV (kept for the next time) and this tree's in
-# build-bench, then runs `uavstab-bench-element --only throughput` (this tree's harness, the
+# Builds REV's plugin in build-bench/ab/REV (kept for the next time; tests/bench/common.sh) and
+# this tree's in build-bench, then runs `uavstab-bench-element --only throughput` (this tree's harness, the
 # same for both) once per build per round, alternating which goes first. Prints each run's
 # median fps for I420 at 1 and 2 threads, then the median over rounds and the median of the
-# per-round ratios this / base. A benchmark, not a test: it never fails on the numbers.
+# per-round ratios this / base. Each build runs with a GStreamer registry of its own that
+# is not rescanned, so the harness loads that build's plugin (it adds this tree's plugin
+# directory to GST_PLUGIN_PATH, and in a scan the first directory wins). A benchmark, not a
+# test: it never fails on the numbers.
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$repo"
+bench_repo=$repo
+# shellcheck source=tests/bench/common.sh
+source "$repo/tests/bench/common.sh"
 
 base=
 rounds=6
@@ -23,7 +29,7 @@ while [[ $# -gt 0 ]]; do
     --base) base=$2; shift ;;
     --rounds) rounds=$2; shift ;;
     --resolution) resolutions+=(--resolution "$2"); shift ;;
-    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
     *) echo "ab.sh: unknown option $1" >&2; exit 2 ;;
   esac
   shift
@@ -38,15 +44,10 @@ ninja -C "$builddir" -j 2 >/dev/null
 bench=$builddir/tests/bench/uavstab-bench-element
 [[ -x $bench ]] || { echo "ab.sh: $bench was not built (GStreamer app library missing?)" >&2; exit 1; }
 
-src=$builddir/ab/$sha/src
-if [[ ! -d $src ]]; then
-  mkdir -p "$builddir/ab/$sha"
-  git worktree add --detach "$src" "$sha" >/dev/null 2>&1 || git worktree add -f --detach "$src" "$sha" >/dev/null
-fi
-[[ -f $src/build/build.ninja ]] || meson setup "$src/build" "$src" -Dtests=disabled >/dev/null
-ninja -C "$src/build" -j 2 gst/libgstuavstabilize.so >/dev/null
+bench_build_base "$sha" "$builddir"
 
-declare -A plugin=([this]="$builddir/gst" [base]="$src/build/gst")
+declare -A plugin=([this]="$builddir/gst" [base]="$base_plugin_dir")
+bench_check_plugin "${plugin[this]}" && bench_check_plugin "${plugin[base]}" || exit 1
 declare -A fps
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
@@ -55,7 +56,7 @@ for r in $(seq 1 "$rounds"); do
   order=(this base)
   (( r % 2 == 0 )) && order=(base this)
   for which in "${order[@]}"; do
-    lines=$(GST_PLUGIN_PATH=${plugin[$which]} "$bench" --out "$out" --only throughput "${resolutions[@]}" 2>&1 |
+    lines=$(bench_with_plugin "${plugin[$which]}" "$bench" --out "$out" --only throughput "${resolutions[@]}" 2>&1 |
             grep -E "element [0-9]+x[0-9]+ I420 threads=[12]:" || true)
     while read -r _ res _ threads value _; do
       [[ -n ${res:-} ]] || continue

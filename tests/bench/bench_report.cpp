@@ -150,6 +150,32 @@ int main(int argc, char **argv)
                                format("%.0f in one process, %.0f in separate processes",
                                       n.get("streams.1080p.one_process"), n.get("streams.1080p.processes")),
                                "reported"});
+        // Issue 22: live streams of this tree against a base commit's plugin, same run
+        // (streams.sh --base); judged on the lower of the two ratios (one process, N processes).
+        if (n.has("streams.1080p.base.one_process") || n.has("streams.1080p.base.processes")) {
+            std::string m;
+            double worst = HUGE_VAL;
+            bool any = false, capped = false;
+            for (const std::string mode : {"one_process", "processes"}) {
+                if (!n.has("streams.1080p.base." + mode))
+                    continue;
+                const double r = n.get("streams.1080p.ratio." + mode);
+                m += format("%s%s: %s vs %s = %s", m.empty() ? "" : "; ",
+                            mode == "one_process" ? "one process" : "separate processes",
+                            num(n.get("streams.1080p." + mode), "%.0f").c_str(),
+                            num(n.get("streams.1080p.base." + mode), "%.0f").c_str(), num(r, "%.2fx").c_str());
+                capped = capped || n.get("streams.1080p.ratio_capped." + mode) > 0;
+                if (std::isfinite(r)) {
+                    any = true;
+                    worst = std::min(worst, r);
+                }
+            }
+            if (capped)
+                m += " (a count is only a bound: no run fell behind at the largest N tried)";
+            targets.push_back({"live 1080p30 streams >= 1.5x base " + n.text("streams.base") +
+                                   " (same run; the lower of the two ratios)",
+                               m, verdict(any, worst >= 1.5)});
+        }
         // Issue 22: throughput. The zero-copy mode against the warp, same run.
         {
             const std::string k = "element.affine_meta.1920x1080";

@@ -2,13 +2,15 @@
 # The benchmark of uavstabilize: throughput, latency, memory and quality of the library and
 # the GStreamer element, beside ffmpeg's deshake and vid.stab on the same frames.
 #
-#   bash tests/bench/run.sh            # full run (~55-60 min on 2 cores, quality ~20 of it, rolling shutter ~10); updates tests/bench/REPORT.md + PNGs
-#   bash tests/bench/run.sh --quick    # fewer runs/resolutions/clips (~3-5 min); report in the out dir only
+#   bash tests/bench/run.sh            # full run (~65 min on 2 cores, quality ~20 of it, rolling shutter ~10, streams ~12); updates tests/bench/REPORT.md + PNGs
+#   bash tests/bench/run.sh --quick    # fewer runs/resolutions/clips (~5-8 min); report in the out dir only
 #
 # Options: --out DIR (default build-bench/bench-out), --no-wait (do not wait for a quiet
 # machine), --no-build (use the build dir as it is), --only PROGRAM (speed, element, memory,
-# quality, path, rs, streams; repeatable; the report is still assembled from whatever the out dir holds,
-# under the header of the run that made it, with a line saying what was re-run).
+# quality, path, rs, streams, profile; repeatable; the report is still assembled from whatever the out dir holds,
+# under the header of the run that made it, with a line saying what was re-run),
+# --base REV (the commit streams.sh and profile.sh measure this tree against, default c0aeebc,
+# the first wave's element; "none": this tree alone).
 # Uses its own build dir, build-bench (UAVSTAB_BENCH_BUILD_DIR overrides). Real clips are
 # read from ../shared/data (relative to the repository) when present and skipped when not.
 # A benchmark, not a test: it reports numbers and never fails on them.
@@ -21,6 +23,7 @@ out=
 wait_quiet=1
 build=1
 only=()
+base=c0aeebc
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --quick) quick=(--quick) ;;
@@ -28,7 +31,8 @@ while [[ $# -gt 0 ]]; do
     --no-wait) wait_quiet=0 ;;
     --no-build) build=0 ;;
     --only) only+=("$2"); shift ;;
-    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+    --base) base=$2; shift ;;
+    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
     *) echo "run.sh: unknown option $1" >&2; exit 2 ;;
   esac
   shift
@@ -87,7 +91,7 @@ else
   echo "- Commit: \`$commit\` $subject$dirty"
   echo "- Machine: $cpu, $(nproc) cores, $(free -g | awk '/Mem:/{print $2}') GiB RAM; $(. /etc/os-release && echo "$PRETTY_NAME"), kernel $(uname -r)"
   echo "- Software: $(g++ --version | head -1); GStreamer $(gst-inspect-1.0 --version 2>/dev/null | sed -n 2p | awk '{print $2}'); OpenCV $opencv; $(ffmpeg -version 2>/dev/null | head -1 | awk '{print "ffmpeg", $3}')"
-  echo "- Command: \`bash tests/bench/run.sh${quick:+ --quick}\`$([[ ${#quick[@]} -gt 0 ]] && echo " (quick: fewer runs, resolutions and clips)")"
+  echo "- Command: \`bash tests/bench/run.sh${quick:+ --quick}$([[ $base == c0aeebc ]] || echo " --base $base")\`$([[ ${#quick[@]} -gt 0 ]] && echo " (quick: fewer runs, resolutions and clips)")"
   echo "- The machine is shared: CPUs were ${start_busy} % busy just before the run. Each section states the share of the CPUs other processes took while it ran; the speed and latency tables give it per row (\"other processes\"): a measurement is repeated (up to 3 attempts, after waiting for a quiet moment) when others took 15 % or more, and the share is **bold** when it stayed that high."
   echo "- Real clips: $( [[ -d $data ]] && echo "\`../shared/data\` ($(ls "$data" | grep -cE '\.(mp4|avi)$') clips)" || echo "not present (sections skipped)")"
 } >"$out/header.md"
@@ -129,9 +133,23 @@ if wants rs; then
   step "rolling shutter (issue 21)"
   "$bin/uavstab-bench-rolling-shutter" --out "$out" --data "$data" "${quick[@]}"
 fi
+base_args=()
+[[ $base == none ]] || base_args=(--base "$base")
 if wants streams; then
-  step "live streams at once"
-  bash tests/bench/streams.sh --out "$out"
+  step "live streams at once${base_args[*]:+, this tree and $base}"
+  if [[ ${#quick[@]} -gt 0 ]]; then
+    bash tests/bench/streams.sh --out "$out" "${base_args[@]}" --seconds 4 --mode one
+  else
+    bash tests/bench/streams.sh --out "$out" "${base_args[@]}"
+  fi
+fi
+if wants profile; then
+  step "CPU profile at 1080p${base_args[*]:+, this tree and $base}"
+  if [[ ${#quick[@]} -gt 0 ]]; then
+    bash tests/bench/profile.sh --out "$out" "${base_args[@]}" --frames 100
+  else
+    bash tests/bench/profile.sh --out "$out" "${base_args[@]}"
+  fi
 fi
 step "report"
 cp tests/bench/reliability.md "$out/reliability.md"  # kept by hand: runs too long for the benchmark
