@@ -462,6 +462,9 @@ int main(int argc, char **argv)
                   << "\n\n"
                   << text;
         }
+        const std::string profile = readFile(o.out_dir + "/profile.md");
+        if (!profile.empty())
+            r << "### Profile of a 1080p stream\n\n" << profile << "\n";
         r << "## Latency\n\n";
         for (const char *frag : {"latency_element", "latency_lib"})
             r << readFile(o.out_dir + "/" + frag + ".md");
