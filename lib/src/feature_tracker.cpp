@@ -19,6 +19,10 @@ constexpr int kMinDetectionSide = 120;
 // Real tracks stay far below; unrelated frames (noise, cuts, flashes) land near 85,
 // where forward and backward tracking can still agree on a spurious zero motion.
 constexpr float kMaxPatchError = 40.f;
+// Levels of the pyramid left out of the first tracking pass, and the share of tracks failing
+// it (1 in this many) beyond which all are tracked again (see FeatureTracker::Impl::match).
+constexpr int kShallowLevels = 1;
+constexpr std::size_t kMaxShallowFailures = 4;
 
 // Window and pyramid depth that fit the analysis image (tiny frames get small windows).
 struct LkGeometry {
@@ -44,9 +48,13 @@ struct FeatureTracker::Impl {
     LumaExtractor luma;
     std::vector<cv::Mat> previous_pyramid, current_pyramid;
     std::vector<cv::Point2f> tracks;  // positions in the previous frame, analysis pixels
-    std::vector<cv::Point2f> forward, backward;
+    std::vector<cv::Point2f> forward;
     std::vector<std::size_t> kept;           // tracks that passed the forward checks
-    std::vector<cv::Point2f> kept_forward;   // where they went
+    std::vector<cv::Point2f> kept_forward, kept_backward;  // where they went, and back
+    std::vector<std::uint8_t> ok;            // tracks that passed the forward-backward checks
+    std::vector<std::size_t> retry;          // tracks tracked again through the whole pyramid
+    std::vector<cv::Point2f> retry_tracks, retry_forward;
+    std::vector<std::uint8_t> retry_ok;
     std::vector<uchar> status_forward, status_backward;
     std::vector<float> errors_forward;
     int track_age = 0;
@@ -56,6 +64,11 @@ struct FeatureTracker::Impl {
     LkGeometry lk{};
 
     void detect(const std::vector<cv::Mat> &pyramid);
+    // LK from the previous pyramid into the current one and back, on `levels` levels above
+    // the finest: `to` where each point went, `passed` set where the forward checks
+    // (status, patch error, inside the image) and the forward-backward distance held.
+    void trackBoth(const std::vector<cv::Point2f> &from, std::vector<cv::Point2f> &to,
+                   std::vector<std::uint8_t> &passed, int levels);
     // Tracks `tracks` from the previous pyramid into the current one (re-detecting first
     // when due or when `redetect`), forward-backward checked and outside excluded regions.
     PointMatches match(bool redetect);
@@ -176,6 +189,37 @@ Point2 FeatureTracker::Impl::toFrame(cv::Point2f p) const
     return {(p.x + 0.5) * sx - 0.5 - (frame_width - 1) * 0.5, (p.y + 0.5) * sy - 0.5 - (frame_height - 1) * 0.5};
 }
 
+void FeatureTracker::Impl::trackBoth(const std::vector<cv::Point2f> &from, std::vector<cv::Point2f> &to,
+                                     std::vector<std::uint8_t> &passed, int levels)
+{
+    const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
+    cv::calcOpticalFlowPyrLK(previous_pyramid, current_pyramid, from, to, status_forward, errors_forward,
+                             lk.window, levels, criteria);
+    // Only tracks that passed the forward checks go back: the rest are dropped anyway.
+    const cv::Rect2f inside(0.f, 0.f, float(analysis.width - 1), float(analysis.height - 1));
+    kept.clear();
+    kept_forward.clear();
+    for (std::size_t i = 0; i < from.size(); ++i) {
+        if (status_forward[i] && !(errors_forward[i] > kMaxPatchError) && inside.contains(to[i])) {
+            kept.push_back(i);
+            kept_forward.push_back(to[i]);
+        }
+    }
+    passed.assign(from.size(), 0);
+    if (kept.empty())
+        return;
+    // No patch error for the way back: only the forward one is checked, and OpenCV skips a
+    // window resampling per point when it is not asked for.
+    cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid, kept_forward, kept_backward, status_backward,
+                             cv::noArray(), lk.window, levels, criteria);
+    const float limit2 = float(config.fb_threshold * config.fb_threshold);
+    for (std::size_t k = 0; k < kept.size(); ++k) {
+        const std::size_t i = kept[k];
+        const cv::Point2f e = kept_backward[k] - from[i];
+        passed[i] = status_backward[k] && e.dot(e) <= limit2;
+    }
+}
+
 PointMatches FeatureTracker::Impl::match(bool redetect)
 {
     PointMatches matches;
@@ -186,28 +230,37 @@ PointMatches FeatureTracker::Impl::match(bool redetect)
     }
     matches.detected = int(tracks.size());
     if (!tracks.empty()) {
-        const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
-        cv::calcOpticalFlowPyrLK(previous_pyramid, current_pyramid, tracks, forward,
-                                 status_forward, errors_forward, lk.window, lk.levels, criteria);
-        // Only tracks that passed the forward checks go back: the rest are dropped anyway.
-        const cv::Rect2f inside(0.f, 0.f, float(analysis.width - 1), float(analysis.height - 1));
-        kept.clear();
-        kept_forward.clear();
-        for (std::size_t i = 0; i < tracks.size(); ++i) {
-            if (status_forward[i] && !(errors_forward[i] > kMaxPatchError) && inside.contains(forward[i])) {
-                kept.push_back(i);
-                kept_forward.push_back(forward[i]);
+        // Shake moves a track a few analysis pixels: the pyramid's coarsest level, there for
+        // fast motion, is left out at first, and the tracks that fail the checks are
+        // tracked again through the whole pyramid (a motion beyond the shallow pyramid's reach
+        // fails them). When many fail, the frame moved far: every track is tracked again, so
+        // that none is kept from a shallow pass that may have locked onto a repeating
+        // texture's neighbouring period.
+        const int shallow = std::max(0, lk.levels - kShallowLevels);
+        trackBoth(tracks, forward, ok, shallow);
+        if (shallow < lk.levels) {
+            retry.clear();
+            for (std::size_t i = 0; i < tracks.size(); ++i)
+                if (!ok[i])
+                    retry.push_back(i);
+            if (retry.size() * kMaxShallowFailures > tracks.size()) {
+                retry.resize(tracks.size());
+                for (std::size_t i = 0; i < tracks.size(); ++i)
+                    retry[i] = i;
+            }
+            if (!retry.empty()) {
+                retry_tracks.clear();
+                for (const std::size_t i : retry)
+                    retry_tracks.push_back(tracks[i]);
+                trackBoth(retry_tracks, retry_forward, retry_ok, lk.levels);
+                for (std::size_t k = 0; k < retry.size(); ++k) {
+                    forward[retry[k]] = retry_forward[k];
+                    ok[retry[k]] = retry_ok[k];
+                }
             }
         }
         std::vector<cv::Point2f> survivors;
-        survivors.reserve(kept.size());
-        if (!kept.empty()) {
-            // No patch error for the way back: only the forward one is checked, and
-            // OpenCV skips a window resampling per point when it is not asked for.
-            cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid, kept_forward, backward,
-                                     status_backward, cv::noArray(), lk.window, lk.levels, criteria);
-        }
-        const float limit2 = float(config.fb_threshold * config.fb_threshold);
+        survivors.reserve(tracks.size());
         // Tracks that come near an excluded region (a screen-fixed overlay) are dropped:
         // their window would see the overlay, which does not move with the scene.
         const std::vector<cv::Rect> excluded_rects = excluded(analysis, excludeMargin());
@@ -217,10 +270,8 @@ PointMatches FeatureTracker::Impl::match(bool redetect)
                        p.y < float(r.y + r.height);
             });
         };
-        for (std::size_t k = 0; k < kept.size(); ++k) {
-            const std::size_t i = kept[k];
-            const cv::Point2f e = backward[k] - tracks[i];
-            if (!status_backward[k] || e.dot(e) > limit2)
+        for (std::size_t i = 0; i < tracks.size(); ++i) {
+            if (!ok[i])
                 continue;
             if (!excluded_rects.empty() && (isExcluded(forward[i]) || isExcluded(tracks[i])))
                 continue;

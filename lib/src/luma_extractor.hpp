@@ -91,8 +91,14 @@ private:
     cv::Mat packed_small_;
     cv::Mat swapped_;       // 16-bit big-endian frames in host byte order
     cv::Mat luma16_;        // 16-bit analysis image before the gain
+    std::vector<std::uint16_t> row_sums_;  // boxDownscale3's scratch
     AutoGain gain_;
 };
+
+// Averages 3x3 blocks of an 8-bit image of 1 or 4 channels (each output sample the
+// rounded mean of its block, vector and scalar paths alike) into an image a third of its
+// size (rows and columns beyond a multiple of 3 ignored). `row_sums` is scratch.
+void boxDownscale3(const cv::Mat &src, cv::Mat &dst, std::vector<std::uint16_t> &row_sums);
 
 // Wraps one plane of a frame as a cv::Mat with the plane's stride (no copy). 16-bit
 // planes are CV_16U, in the frame's byte order.

@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/core.hpp>
+
+#include "luma_extractor.hpp"
 #include "shaky_flight.hpp"
 #include "uavstab/motion_estimator.hpp"
 
@@ -202,5 +205,61 @@ TEST(FeatureTracker, VeryLargeFramesAreAnalysedAtTheAnalysisWidth)
         ASSERT_FALSE(e.skipped) << w << "x" << h;
         EXPECT_NEAR(e.motion.dx, 24.0, 0.3 * w / 640) << w << "x" << h;
         EXPECT_NEAR(e.motion.dy, -12.0, 0.3 * w / 640) << w << "x" << h;
+    }
+}
+
+TEST(LumaExtractor, BoxDownscaleIsTheRoundedMeanOfEachBlock)
+{
+    // Widths that leave the vector loops a tail, 1 and 4 channels, a stride wider than the
+    // row (a view into a bigger image), extremes (all 255: no overflow of the sums).
+    cv::RNG rng(5);
+    std::vector<std::uint16_t> scratch;
+    for (const int channels : {1, 4})
+        for (const int out_width : {1, 5, 16, 17, 37, 640})
+            for (const bool saturated : {false, true}) {
+                const int out_height = 7;
+                cv::Mat big(out_height * 3 + 2, out_width * 3 + 5, CV_8UC(channels));
+                if (saturated)
+                    big.setTo(cv::Scalar::all(255));
+                else
+                    rng.fill(big, cv::RNG::UNIFORM, 0, 256);
+                const cv::Mat src = big(cv::Rect(1, 1, out_width * 3 + 2, out_height * 3));
+                cv::Mat dst;
+                boxDownscale3(src, dst, scratch);
+                ASSERT_EQ(dst.size(), cv::Size(out_width, out_height));
+                ASSERT_EQ(dst.type(), src.type());
+                for (int y = 0; y < out_height; ++y)
+                    for (int x = 0; x < out_width; ++x)
+                        for (int c = 0; c < channels; ++c) {
+                            int sum = 0;
+                            for (int v = 0; v < 3; ++v)
+                                for (int u = 0; u < 3; ++u)
+                                    sum += src.ptr<std::uint8_t>(3 * y + v)[(3 * x + u) * channels + c];
+                            ASSERT_EQ(int(dst.ptr<std::uint8_t>(y)[x * channels + c]), (sum + 4) / 9)
+                                << channels << " channels, width " << out_width << " at " << x << "," << y;
+                        }
+            }
+}
+
+TEST(LumaExtractor, ExactThirdsAreBlockMeansOfTheLuma)
+{
+    // 1080p (a third) and 4K (a halving, then a third) to the default 640x360.
+    for (auto [w, h] : {std::pair{1920, 1080}, {3840, 2160}}) {
+        FrameBuffer frame(PixelFormat::I420, w, h);
+        cv::Mat y(h, w, CV_8UC1, frame.row(0, 0), std::size_t(frame.view().planes[0].stride));
+        cv::RNG(11).fill(y, cv::RNG::UNIFORM, 0, 256);
+        LumaExtractor extractor;
+        const cv::Mat luma = extractor.extract(frame.view(), 640).clone();
+        ASSERT_EQ(luma.size(), cv::Size(640, 360));
+        const int f = w / 640;
+        for (int r = 0; r < 360; r += 7)
+            for (int c = 0; c < 640; c += 5) {
+                double sum = 0.0;
+                for (int v = 0; v < f; ++v)
+                    for (int u = 0; u < f; ++u)
+                        sum += y.at<std::uint8_t>(f * r + v, f * c + u);
+                // 4K: the halving rounds once more.
+                EXPECT_NEAR(luma.at<std::uint8_t>(r, c), sum / (f * f), f == 3 ? 0.5 : 1.0) << w << " " << r << "," << c;
+            }
     }
 }
