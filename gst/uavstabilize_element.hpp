@@ -55,6 +55,7 @@ struct UavStabilizeState final : OutputBufferSource {
     GstCaps *caps = nullptr;
     GstVideoInfo info{};
     std::size_t max_finalized = 0;       // chain backpressure: finalized frames not yet popped
+    std::size_t max_drain_finalized = 0; // the same for a drain (EOS, new caps)
     int bad_buffers = 0;                 // consecutive input buffers dropped as unreadable
     const void *checked_pool = nullptr;  // the upstream pool last looked at...
     guint checked_needed = 0;            // ...and the buffers we needed then

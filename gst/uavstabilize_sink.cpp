@@ -244,8 +244,12 @@ bool finalizeHeldFrames(UavStabilizeState &s)
 {
     if (!s.stabilizer)
         return true;
+    // A drain (EOS, new caps) may go on while downstream holds on to a frame (a sink
+    // prerolling, a blocked push): it keeps up to max_drain_finalized frames in flight, so
+    // that an event behind a short delay does not wait for downstream.
     for (;;) {
-        if (waitForOutputRoom(s) != GST_FLOW_OK)
+        if (s.output.waitForRoom([&s] { return s.stabilizer->finalizedCount() <= s.max_drain_finalized; }) !=
+            GST_FLOW_OK)
             return false;
         if (!s.stabilizer->flushOne())
             return true;
