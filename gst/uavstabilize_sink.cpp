@@ -113,13 +113,22 @@ GstFlowReturn chainFrame(GstUavStabilize *self, UavStabilizeState &s, BufferPtr 
         return dropBadBuffer(self, s, buffer_size, pts);
     s.bad_buffers = 0;
 
-    // Backpressure: when downstream is slower than the warps, finalized frames (each
-    // with an output buffer) pile up; wait here so memory stays bounded.
-    const GstFlowReturn ret =
-        s.output.queueFrameWhenRoom([&s] { return s.stabilizer->finalizedCount() <= s.max_finalized; });
+    // The frame takes its place in the output order and its motion is estimated while
+    // earlier frames are warped. Backpressure comes after that: the frame the delay lets
+    // go of takes an output buffer (and its warp starts) only once few enough finalized
+    // frames, each holding an input and an output buffer, wait for their warp or for the
+    // task; so memory stays bounded when downstream is slower than the warps, and few
+    // frames are in flight when it is not.
+    const GstFlowReturn ret = s.output.queueFrameWhenRoom([] { return true; });
     if (ret != GST_FLOW_OK)
         return ret;
-    s.stabilizer->push(std::move(slot));
+    s.stabilizer->pushHeld(std::move(slot));
+    while (s.stabilizer->dueCount() > 0) {
+        const GstFlowReturn room = waitForOutputRoom(s);
+        if (room != GST_FLOW_OK)
+            return room;  // the frame stays held: a flush drops it, a drain finalizes it
+        s.stabilizer->finalizeDue();
+    }
     return GST_FLOW_OK;
 }
 
@@ -235,8 +244,12 @@ bool finalizeHeldFrames(UavStabilizeState &s)
 {
     if (!s.stabilizer)
         return true;
+    // A drain (EOS, new caps) may go on while downstream holds on to a frame (a sink
+    // prerolling, a blocked push): it keeps up to max_drain_finalized frames in flight, so
+    // that an event behind a short delay does not wait for downstream.
     for (;;) {
-        if (waitForOutputRoom(s) != GST_FLOW_OK)
+        if (s.output.waitForRoom([&s] { return s.stabilizer->finalizedCount() <= s.max_drain_finalized; }) !=
+            GST_FLOW_OK)
             return false;
         if (!s.stabilizer->flushOne())
             return true;

@@ -126,6 +126,27 @@ void Stabilizer::markDiscontinuity()
 
 void Stabilizer::push(std::unique_ptr<FrameSlot> slot)
 {
+    pushHeld(std::move(slot));
+    while (finalizeDue()) {
+    }
+}
+
+std::size_t Stabilizer::dueCount() const
+{
+    const std::size_t delay = std::size_t(config_.delay);
+    return held_.size() > delay ? held_.size() - delay : 0;
+}
+
+bool Stabilizer::finalizeDue()
+{
+    if (dueCount() == 0)
+        return false;
+    finalizeOldest();
+    return true;
+}
+
+void Stabilizer::pushHeld(std::unique_ptr<FrameSlot> slot)
+{
     if (!slot)
         throw std::invalid_argument("Stabilizer::push: null slot");
     const FrameView frame = slot->input();
@@ -166,9 +187,6 @@ void Stabilizer::push(std::unique_ptr<FrameSlot> slot)
     discontinuity_ = false;
     held.slot = std::move(slot);
     held_.push_back(std::move(held));
-
-    while (held_.size() > std::size_t(config_.delay))
-        finalizeOldest();
 }
 
 void Stabilizer::flush()

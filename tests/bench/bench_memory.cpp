@@ -5,6 +5,8 @@
 //
 //   uavstab-bench-memory --out DIR [--quick] [--resolution WxH]...                    (driver: runs the children)
 //   uavstab-bench-memory --child lib|element WxH FRAMES [CHECKPOINT...]
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <iostream>
@@ -25,11 +27,59 @@ using namespace bench;
 namespace {
 
 constexpr int kDistinct = 24;
+// The library run's backpressure: a frame the delay lets go of is finalized (takes an output
+// frame) only while at most this many finalized frames are not yet popped, as the element's
+// chain does (gst/gstuavstabilize.cpp, max_finalized).
+constexpr std::size_t kLibraryMaxFinalized = 0;
+// The memory budget: the frames the delay holds and 8 more, library and element alike
+// (the element's count includes appsrc's queue).
+constexpr int kBudgetExtraFrames = 8;
 
 double mib(long kib)
 {
     return kib / 1024.0;
 }
+
+// What each frame's worth of the peak is: frames counted at the moment the heap in use was
+// highest (sampled after every push and every drained frame).
+struct PeakBreakdown {
+    long heap = 0;            // KiB in use, the peak
+    long held_inputs = 0;     // input frames the delay holds, and the one being estimated
+    long inflight_inputs = 0; // input frames finalized, their warp not done or not yet popped
+    long outputs = 0;         // output frames: warps in flight, popped but not yet let go, pooled
+    long queued_inputs = 0;   // element: input frames in appsrc's queue (the harness's)
+
+    void print() const
+    {
+        std::printf("at_peak_held_inputs=%ld\nat_peak_inflight_inputs=%ld\nat_peak_outputs=%ld\n"
+                    "at_peak_queued_inputs=%ld\n",
+                    held_inputs, inflight_inputs, outputs, queued_inputs);
+    }
+};
+
+// The library run's frames, counted as they come and go.
+std::atomic<long> g_live_inputs{0}, g_live_outputs{0};
+
+class CountedSlot : public FrameSlot {
+public:
+    explicit CountedSlot(const FrameBuffer &in) : in_(in) { ++g_live_inputs; }  // a fresh copy
+    ~CountedSlot() override
+    {
+        --g_live_inputs;
+        if (out_.width() > 0)
+            --g_live_outputs;
+    }
+    FrameView input() override { return in_.view(); }
+    std::optional<FrameView> acquireOutput() override
+    {
+        out_ = FrameBuffer(in_.format(), in_.width(), in_.height());
+        ++g_live_outputs;
+        return out_.view();
+    }
+
+private:
+    FrameBuffer in_, out_;
+};
 
 // Prints "rss_at_N=KiB" at each checkpoint and "base=", "peak=", "frame_bytes=" at the end.
 int childLibrary(int width, int height, long frames, const std::vector<long> &checkpoints)
@@ -38,51 +88,133 @@ int childLibrary(int width, int height, long frames, const std::vector<long> &ch
     malloc_trim(0);
     StabilizerConfig config;
     Stabilizer stabilizer(config);
-    const std::size_t max_in_flight = std::size_t(config.resolvedThreads()) + 2;
+    const std::size_t max_in_flight = kLibraryMaxFinalized;
     resetPeakRss();
     const long base = rssKiB(), heap_base = heapInUseKiB();
-    long heap_peak = heap_base;
+    PeakBreakdown at_peak;
+    at_peak.heap = heap_base;
     const bool sample_heap = frames <= 2000;  // mallinfo2 walks the heap: only on short runs
-    std::size_t next = 0;
-    for (long k = 0; k < frames; ++k) {
-        stabilizer.push(std::make_unique<OwnedSlot>(pool[std::size_t(pingPong(k, kDistinct))], k));
-        if (sample_heap)
-            heap_peak = std::max(heap_peak, heapInUseKiB());
+    const auto sample = [&] {
+        if (!sample_heap)
+            return;
+        const long heap = heapInUseKiB();
+        if (heap <= at_peak.heap)
+            return;
+        at_peak.heap = heap;
+        at_peak.held_inputs = long(stabilizer.heldCount());
+        at_peak.inflight_inputs = g_live_inputs.load() - at_peak.held_inputs;
+        at_peak.outputs = g_live_outputs.load();
+    };
+    // As the element does: a frame beyond the delay is finalized (and takes an output
+    // frame) only when at most max_in_flight finalized frames are not yet popped; each
+    // ready frame is popped (and let go) at once.
+    const auto pop_ready = [&] {
         while (auto f = stabilizer.tryPop()) {
         }
+    };
+    const auto wait_room = [&] {
+        pop_ready();
         while (stabilizer.finalizedCount() > max_in_flight)
             stabilizer.waitPop();
+    };
+    std::size_t next = 0;
+    for (long k = 0; k < frames; ++k) {
+        stabilizer.pushHeld(std::make_unique<CountedSlot>(pool[std::size_t(pingPong(k, kDistinct))]));
+        sample();
+        for (;;) {
+            wait_room();
+            if (!stabilizer.finalizeDue())
+                break;
+            sample();
+        }
         if (next < checkpoints.size() && k + 1 == checkpoints[next]) {
             std::printf("rss_at_%ld=%ld\n", k + 1, rssKiB());
             std::fflush(stdout);
             ++next;
         }
     }
-    stabilizer.flush();
+    // Drained as the element drains at EOS: one frame at a time, with the same room.
+    for (;;) {
+        wait_room();
+        if (!stabilizer.flushOne())
+            break;
+        sample();
+    }
     while (auto f = stabilizer.waitPop()) {
     }
     std::printf("base=%ld\npeak=%ld\nheap_base=%ld\nheap_peak=%ld\nframe_bytes=%zu\n", base, peakRssKiB(), heap_base,
-                heap_peak, std::size_t(width) * height * 3 / 2);
+                at_peak.heap, std::size_t(width) * height * 3 / 2);
+    at_peak.print();
     return 0;
 }
 
 #ifdef UAVSTAB_BENCH_WITH_GST
+// The element run's frames: buffers are counted from when they enter uavstabilize (input)
+// or first leave it (output) until they are freed. Output buffers go back to its pool,
+// which keeps them and hands them out again: once seen, a pooled buffer stays counted,
+// wherever it is (being warped again, pushed, or idle in the pool). Only a buffer the pool
+// has just allocated goes uncounted until it leaves, at the start of the stream.
+std::atomic<long> g_element_inputs{0}, g_element_outputs{0};
+GQuark g_counted_quark;
+
+void countBuffer(GstPadProbeInfo *info, std::atomic<long> &counter)
+{
+    GstBuffer *buffer = GST_PAD_PROBE_INFO_BUFFER(info);
+    if (buffer && !gst_mini_object_get_qdata(GST_MINI_OBJECT(buffer), g_counted_quark)) {
+        ++counter;
+        gst_mini_object_set_qdata(GST_MINI_OBJECT(buffer), g_counted_quark, &counter,
+                                  [](gpointer c) { --*static_cast<std::atomic<long> *>(c); });
+    }
+}
+
+GstPadProbeReturn countInput(GstPad *, GstPadProbeInfo *info, gpointer)
+{
+    countBuffer(info, g_element_inputs);
+    return GST_PAD_PROBE_OK;
+}
+
+GstPadProbeReturn countOutput(GstPad *, GstPadProbeInfo *info, gpointer)
+{
+    countBuffer(info, g_element_outputs);
+    return GST_PAD_PROBE_OK;
+}
+
 int childElement(int width, int height, long frames, const std::vector<long> &checkpoints)
 {
     GstFrames gst_frames(framesFromBgr(renderFlight(width, height, kDistinct), PixelFormat::I420), 30);
     malloc_trim(0);
     ElementRun run(gst_frames, "");
     run.setRecording(false);
+    g_counted_quark = g_quark_from_static_string("uavstab-bench-memory-counted");
+    GstElement *stab = gst_bin_get_by_name(GST_BIN(run.pipeline()), "stab");
+    GstElement *src = gst_bin_get_by_name(GST_BIN(run.pipeline()), "src");
+    GstPad *sinkpad = gst_element_get_static_pad(stab, "sink");
+    GstPad *srcpad = gst_element_get_static_pad(stab, "src");
+    gst_pad_add_probe(sinkpad, GST_PAD_PROBE_TYPE_BUFFER, countInput, nullptr, nullptr);
+    gst_pad_add_probe(srcpad, GST_PAD_PROBE_TYPE_BUFFER, countOutput, nullptr, nullptr);
+    gst_object_unref(sinkpad);
+    gst_object_unref(srcpad);
     run.start();
     resetPeakRss();
     const long base = rssKiB(), heap_base = heapInUseKiB();
-    long heap_peak = heap_base;
+    PeakBreakdown at_peak;
+    at_peak.heap = heap_base;
+    std::vector<long> at_peak_outputs_seen;
     const bool sample_heap = frames <= 2000;
     std::size_t next = 0;
     for (long k = 0; k < frames; ++k) {
         run.push(k, true);  // a deep copy: new memory per frame
-        if (sample_heap)
-            heap_peak = std::max(heap_peak, heapInUseKiB());
+        if (sample_heap) {
+            const long heap = heapInUseKiB();
+            if (heap > at_peak.heap) {
+                at_peak.heap = heap;
+                guint64 level = 0;
+                g_object_get(src, "current-level-bytes", &level, nullptr);
+                at_peak.queued_inputs = long(level / gst_frames.frameBytes());
+                at_peak.inflight_inputs = g_element_inputs.load();  // split below
+                at_peak.outputs = g_element_outputs.load();
+            }
+        }
         if (next < checkpoints.size() && k + 1 == checkpoints[next]) {
             std::printf("rss_at_%ld=%ld\n", k + 1, rssKiB());
             std::fflush(stdout);
@@ -93,8 +225,17 @@ int childElement(int width, int height, long frames, const std::vector<long> &ch
         std::fprintf(stderr, "element run failed: %s\n", run.error().c_str());
         return 1;
     }
+    // The element's inputs at the peak: `delay` + 1 held (the delay buffer, full from frame
+    // `delay` on, and the frame being estimated) and the rest in flight.
+    guint delay = 0;
+    g_object_get(stab, "delay", &delay, nullptr);
+    at_peak.held_inputs = std::min<long>(at_peak.inflight_inputs, long(delay) + 1);
+    at_peak.inflight_inputs -= at_peak.held_inputs;
+    gst_object_unref(stab);
+    gst_object_unref(src);
     std::printf("base=%ld\npeak=%ld\nheap_base=%ld\nheap_peak=%ld\nframe_bytes=%zu\nreceived=%ld\n", base, peakRssKiB(),
-                heap_base, heap_peak, gst_frames.frameBytes(), run.received());
+                heap_base, at_peak.heap, gst_frames.frameBytes(), run.received());
+    at_peak.print();
     return 0;
 }
 #endif
@@ -128,19 +269,24 @@ void driver(const Options &o, bool element)
     Fragment frag(o, "memory");
     const int delay = StabilizerConfig{}.delay;
     const long frames = o.quick ? 120 : 300;
+    const int budget = delay + kBudgetExtraFrames;
     frag.text(format(
         "Memory: each measurement is a process of its own; input frames are fresh buffers (a copy of one of %d frames "
         "made in memory beforehand), I420, default config (delay %d). Base = RSS after the frames were made, "
         "before the first push; peak = VmHWM (reset at the base); the difference is what the stabilizer holds "
         "(held input frames, output frames in flight, pyramids, and what the allocator keeps), also in frames of "
-        "the resolution. The peak of malloc'ed bytes in use (mallinfo2, sampled after every push) separates "
-        "what is really held from what glibc keeps mapped; budget = delay + 4 = %d frames (element: + 4 for "
-        "appsrc's queue of 3 and the frame being pushed). Library: `Stabilizer` with at most threads+2 warps in "
-        "flight; "
-        "element: `appsrc ! uavstabilize ! fakesink`, appsrc queueing at most 3 frames (counted here too).",
-        kDistinct, delay, delay + 4));
+        "the resolution. The peak of malloc'ed bytes in use (mallinfo2, sampled after every push and every drained "
+        "frame) separates what is really held from what glibc keeps mapped; budget = delay + %d = %d frames, "
+        "library and element alike (the element's count includes appsrc's queue of up to 3 frames). Library: "
+        "`Stabilizer::pushHeld`, then each frame the delay lets go of is finalized (takes an output frame) once at "
+        "most %zu finalized frames are not yet popped, as the element's chain does; the end of the stream is "
+        "drained one frame at a time the same way. Element: `appsrc ! uavstabilize ! fakesink`, appsrc "
+        "queueing at most 3 frames.",
+        kDistinct, delay, kBudgetExtraFrames, budget, kLibraryMaxFinalized));
     Table t({"resolution", "what", "frames", "frame MiB", "base RSS MiB", "peak RSS MiB", "peak - base MiB", "= frames",
              "peak heap in use - base MiB", "= frames", "heap within budget"});
+    Table b({"resolution", "what", "peak heap = frames", "held by the delay", "inputs in flight", "outputs",
+             "appsrc queue", "the rest (pyramids, scratch, allocator)", "the rest MiB"});
     std::vector<std::string> modes{"lib"};
     if (element)
         modes.push_back("element");
@@ -151,25 +297,51 @@ void driver(const Options &o, bool element)
                 frag.text("**Memory run failed** for " + mode + " at " + r.name());
                 continue;
             }
+            const std::string what = mode == "lib" ? "library" : "element";
             const double fb = double(v.at("frame_bytes")) / (1024.0 * 1024.0);
             const double held = mib(v.at("peak") - v.at("base"));
             const double in_frames = held / fb;
-            // The element's own budget plus what the harness holds (appsrc's queue).
-            const double budget = delay + 4 + (mode == "element" ? 4 : 0);
             const double heap = mib(v.at("heap_peak") - v.at("heap_base")), heap_frames = heap / fb;
-            t.row({r.name(), mode == "lib" ? "library" : "element", std::to_string(frames), format("%.2f", fb),
-                   format("%.0f", mib(v.at("base"))), format("%.0f", mib(v.at("peak"))), format("%.0f", held),
-                   format("%.1f", in_frames), format("%.0f", heap), format("%.1f", heap_frames),
-                   heap_frames <= budget ? format("yes (<= %.0f)", budget) : format("no (> %.0f)", budget)});
-            putResult(o, "memory." + mode + "." + r.name() + ".heap_frames", heap_frames);
-            putResult(o, "memory." + mode + "." + r.name() + ".peak_mib", mib(v.at("peak")));
-            putResult(o, "memory." + mode + "." + r.name() + ".held_frames", in_frames);
-            std::printf("  memory %s %s: peak %.0f MiB, held %.0f MiB = %.1f frames\n", mode.c_str(), r.name().c_str(),
-                        mib(v.at("peak")), held, in_frames);
+            // What each frame's worth is, counted at the moment of the peak.
+            const long held_inputs = v.at("at_peak_held_inputs"), inflight = v.at("at_peak_inflight_inputs"),
+                       outputs = v.at("at_peak_outputs"), queued = v.at("at_peak_queued_inputs");
+            const double rest_frames = heap_frames - double(held_inputs + inflight + outputs + queued);
+            t.row({r.name(), what, std::to_string(frames), format("%.2f", fb), format("%.0f", mib(v.at("base"))),
+                   format("%.0f", mib(v.at("peak"))), format("%.0f", held), format("%.1f", in_frames),
+                   format("%.0f", heap), format("%.1f", heap_frames),
+                   heap_frames <= budget ? format("yes (<= %d)", budget) : format("no (> %d)", budget)});
+            b.row({r.name(), what, format("%.1f", heap_frames), std::to_string(held_inputs), std::to_string(inflight),
+                   std::to_string(outputs), mode == "lib" ? "-" : std::to_string(queued),
+                   format("%.1f", rest_frames), format("%.1f", rest_frames * fb)});
+            const std::string key = "memory." + mode + "." + r.name();
+            putResult(o, key + ".heap_frames", heap_frames);
+            putResult(o, key + ".heap_mib", heap);
+            putResult(o, key + ".peak_mib", mib(v.at("peak")));
+            putResult(o, key + ".held_frames", in_frames);
+            putResult(o, key + ".budget_frames", budget);
+            putResult(o, key + ".at_peak.held_inputs", held_inputs);
+            putResult(o, key + ".at_peak.inflight_inputs", inflight);
+            putResult(o, key + ".at_peak.outputs", outputs);
+            putResult(o, key + ".at_peak.queued_inputs", queued);
+            putResult(o, key + ".at_peak.rest_frames", rest_frames);
+            putResult(o, key + ".at_peak.rest_mib", rest_frames * fb);
+            std::printf("  memory %s %s: peak %.0f MiB, held %.0f MiB = %.1f frames; heap %.1f frames = %ld held + "
+                        "%ld in flight + %ld outputs + %ld queued + %.1f rest (%.1f MiB)\n",
+                        mode.c_str(), r.name().c_str(), mib(v.at("peak")), held, in_frames, heap_frames, held_inputs,
+                        inflight, outputs, queued, rest_frames, rest_frames * fb);
             std::fflush(stdout);
         }
     }
     frag.table(t);
+    frag.text(
+        "What each frame's worth of the peak heap is, counted at the moment of the peak: held by the delay = input "
+        "frames the delay holds and the one being estimated (delay + 1 at most); inputs in flight = input frames "
+        "finalized whose warp is not done or that are not yet popped; outputs = output frames alive (library: "
+        "warps in flight and popped frames not yet let go; element: the same, and the buffers back in its output "
+        "pool, which keeps them); appsrc queue = input frames not yet taken by the element (the harness's); the rest = the "
+        "peak minus those frames: the motion estimator's pyramids (two, with derivatives, of the analysis image at "
+        "most 640 wide: ~5 MiB whatever the resolution), scratch, GStreamer's own and the allocator's.");
+    frag.table(b);
 
     // Long stream.
     const Resolution small{320, 240};

@@ -441,3 +441,56 @@ TEST(Stabilizer, DrainingOneFrameAtATimeEqualsFlush)
         EXPECT_DOUBLE_EQ(paced[i].stats.correction.angle, all[i].stats.correction.angle);
     }
 }
+
+TEST(Stabilizer, PushHeldFinalizesOnlyWhenAskedAndWarpsTheSameAsPush)
+{
+    synthetic::FlightOptions options;
+    options.width = 320;
+    options.height = 180;
+    options.frames = 40;
+    const synthetic::ShakyFlight flight(options);
+    const int delay = 20, n = 40;
+    // late: frames beyond the delay wait in the delay buffer, up to three pushes long,
+    // before the caller lets finalizeDue() take them.
+    auto run = [&](bool split) {
+        Stabilizer s(smallConfig(delay));
+        std::vector<StabilizedFrame> frames;
+        for (int i = 0; i < n; ++i) {
+            if (!split) {
+                s.push(BufferSlot::make(flight.render(i), i));
+            } else {
+                s.pushHeld(BufferSlot::make(flight.render(i), i));
+                EXPECT_EQ(s.heldCount(), std::size_t(i + 1) - s.finalizedCount() - frames.size());
+                EXPECT_EQ(s.dueCount(), i < delay ? 0u : std::size_t(i % 4 + 1)) << i;
+                if (i % 4 == 3 || i == n - 1) {
+                    while (s.finalizeDue()) {
+                    }
+                    EXPECT_EQ(s.dueCount(), 0u);
+                    EXPECT_EQ(s.heldCount(), std::size_t(std::min(i + 1, delay)));
+                }
+            }
+            while (auto f = s.tryPop())
+                frames.push_back(std::move(*f));
+        }
+        s.flush();
+        while (auto f = s.waitPop())
+            frames.push_back(std::move(*f));
+        return frames;
+    };
+    const auto whole = run(false), split = run(true);
+    ASSERT_EQ(whole.size(), std::size_t(n));
+    ASSERT_EQ(split.size(), std::size_t(n));
+    for (std::size_t i = 0; i < whole.size(); ++i) {
+        ASSERT_EQ(BufferSlot::of(split[i]).id(), int(i));
+        ASSERT_EQ(split[i].outcome, Outcome::Warped);
+        const FrameView a = BufferSlot::of(whole[i]).outputBuffer().view(),
+                        b = BufferSlot::of(split[i]).outputBuffer().view();
+        for (int p = 0; p < a.planeCount(); ++p)
+            for (int y = 0; y < a.planeHeight(p); ++y)
+                ASSERT_EQ(std::memcmp(a.planes[p].data + std::size_t(y) * a.planes[p].stride,
+                                      b.planes[p].data + std::size_t(y) * b.planes[p].stride,
+                                      std::size_t(a.planeRowBytes(p))),
+                          0)
+                    << "frame " << i << " plane " << p << " row " << y;
+    }
+}

@@ -74,6 +74,17 @@ public:
     // frame is queued (the slot is then destroyed, nothing else changes). Once queued, a
     // frame always comes back: estimation failures give it identity motion instead.
     void push(std::unique_ptr<FrameSlot> slot);
+    // push() in two steps, for a caller that keeps few output frames in flight: pushHeld()
+    // estimates the frame and holds it, and leaves frames beyond the delay held
+    // (heldCount() may exceed the delay) until finalizeDue() finalizes them, oldest first,
+    // one per call (false when none is due). So the caller can estimate this frame while
+    // earlier warps run, and take the next output frame only once there is room for it.
+    // push() is pushHeld() followed by finalizeDue() until it returns false. A frame is
+    // planned and warped the same whenever it is finalized.
+    void pushHeld(std::unique_ptr<FrameSlot> slot);
+    bool finalizeDue();
+    // Held frames beyond the delay: what finalizeDue() would finalize.
+    std::size_t dueCount() const;
     // The next pushed frame starts a new path (scene cut, gap, discontinuity): no motion
     // is estimated across it and no smoothing window spans it.
     void markDiscontinuity();
