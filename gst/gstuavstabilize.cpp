@@ -140,7 +140,7 @@ bool startStream(GstUavStabilize *self, UavStabilizeState &s)
     }
     // Runs on a worker thread: only signal.
     s.stabilizer->setReadyCallback([&s] { s.output.notify(); });
-    s.max_finalized = gstuavstab::kMaxFinalized;
+    s.max_finalized = gstuavstab::maxFinalizedFor(config.resolvedThreads());
     s.max_drain_finalized = std::size_t(config.resolvedThreads()) + 2;
     gst_segment_init(&s.output_segment, GST_FORMAT_UNDEFINED);
     return true;

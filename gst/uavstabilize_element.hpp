@@ -13,6 +13,7 @@
 //                                the output pool and the flow flags, under one mutex
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <cstddef>
 #include <memory>
@@ -80,13 +81,16 @@ namespace gstuavstab {
 constexpr guint kExtraInputBuffers = 4;
 
 // Chain backpressure (max_finalized): the frame the delay lets go of is finalized, takes an
-// output buffer and starts its warp only once at most this many finalized frames (each
-// holding an input and an output buffer) wait for their warp or for the task. With 0, one
-// frame is warped while the next is estimated, and nothing more is in flight: the output
-// pool holds two buffers (one being warped, one being pushed). Measured with
-// tests/bench/uavstab-bench-memory: 1080p heap peak 36.6 frames with threads + 2 (and the
-// wait before estimation), 28.6 with 0.
-constexpr std::size_t kMaxFinalized = 0;
+// output buffer and starts its warp only once fewer finalized frames than the warp threads
+// (each holding an input and an output buffer) wait for their warp or for the task. So every
+// warp thread can have a frame while the next one is estimated, and no more is in flight;
+// with one thread the output pool holds two buffers (one being warped, one being pushed).
+// tests/bench/uavstab-bench-memory: 1080p heap peak 36.6 frames when threads + 2 finalized
+// frames could wait (and the wait came before estimation), 28.6 with none.
+inline std::size_t maxFinalizedFor(int threads)
+{
+    return std::size_t(std::max(1, threads) - 1);
+}
 
 struct BufferUnref {
     void operator()(GstBuffer *buffer) const { gst_buffer_unref(buffer); }

@@ -28,9 +28,12 @@ namespace {
 
 constexpr int kDistinct = 24;
 // The library run's backpressure: a frame the delay lets go of is finalized (takes an output
-// frame) only while at most this many finalized frames are not yet popped, as the element's
-// chain does (gst/gstuavstabilize.cpp, max_finalized).
-constexpr std::size_t kLibraryMaxFinalized = 0;
+// frame) only while fewer finalized frames than warp threads are not yet popped, as the
+// element's chain does (gst/uavstabilize_element.hpp, maxFinalizedFor).
+std::size_t libraryMaxFinalized()
+{
+    return std::size_t(std::max(1, StabilizerConfig{}.resolvedThreads()) - 1);
+}
 // The memory budget: the frames the delay holds and 8 more, library and element alike
 // (the element's count includes appsrc's queue).
 constexpr int kBudgetExtraFrames = 8;
@@ -88,7 +91,7 @@ int childLibrary(int width, int height, long frames, const std::vector<long> &ch
     malloc_trim(0);
     StabilizerConfig config;
     Stabilizer stabilizer(config);
-    const std::size_t max_in_flight = kLibraryMaxFinalized;
+    const std::size_t max_in_flight = libraryMaxFinalized();
     resetPeakRss();
     const long base = rssKiB(), heap_base = heapInUseKiB();
     PeakBreakdown at_peak;
@@ -279,10 +282,10 @@ void driver(const Options &o, bool element)
         "frame) separates what is really held from what glibc keeps mapped; budget = delay + %d = %d frames, "
         "library and element alike (the element's count includes appsrc's queue of up to 3 frames). Library: "
         "`Stabilizer::pushHeld`, then each frame the delay lets go of is finalized (takes an output frame) once at "
-        "most %zu finalized frames are not yet popped, as the element's chain does; the end of the stream is "
+        "most %zu finalized frames (the warp threads less one) are not yet popped, as the element's chain does; the end of the stream is "
         "drained one frame at a time the same way. Element: `appsrc ! uavstabilize ! fakesink`, appsrc "
         "queueing at most 3 frames.",
-        kDistinct, delay, kBudgetExtraFrames, budget, kLibraryMaxFinalized));
+        kDistinct, delay, kBudgetExtraFrames, budget, libraryMaxFinalized()));
     Table t({"resolution", "what", "frames", "frame MiB", "base RSS MiB", "peak RSS MiB", "peak - base MiB", "= frames",
              "peak heap in use - base MiB", "= frames", "heap within budget"});
     Table b({"resolution", "what", "peak heap = frames", "held by the delay", "inputs in flight", "outputs",
