@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <vector>
 
 #include <opencv2/core/hal/intrin.hpp>
 
@@ -165,6 +166,14 @@ private:
     double steps_m0_, steps_m3_;  // the matrix entries steps_ was computed for
 };
 
+inline void samplePixels(const PlaneSpan &src, int channels, const double m[6], bool replicate,
+                         const std::uint8_t *border, std::uint8_t *out, int x, int y, int count)
+{
+    for (int j = 0; j < count; ++j)
+        samplePixel(src, channels, m[0] * (x + j) + m[1] * y + m[2], m[3] * (x + j) + m[4] * y + m[5], replicate,
+                    border, out + (x + j) * channels);
+}
+
 #ifdef UAVSTAB_HAVE_X86
 
 __attribute__((target("avx2"))) inline __m256i load2(const std::uint8_t *lo, const std::uint8_t *hi)
@@ -313,13 +322,6 @@ inline bool planChunk(const PlaneSpan &src, int channels, const double m[6], con
              p.iy0 + p.ky_max + 1 >= src.height || p.iy0 + p.ky_min < 0);
 }
 
-inline void samplePixels(const PlaneSpan &src, int channels, const double m[6], bool replicate,
-                         const std::uint8_t *border, std::uint8_t *out, int x, int y, int count)
-{
-    for (int j = 0; j < count; ++j)
-        samplePixel(src, channels, m[0] * (x + j) + m[1] * y + m[2], m[3] * (x + j) + m[4] * y + m[5], replicate,
-                    border, out + (x + j) * channels);
-}
 
 // The reference: what every vector kernel computes, one byte at a time. Lane (v, l) is
 // pixel v * 16 / C + l / C, channel l % C: taps at the integer part of its position, weights
@@ -581,6 +583,218 @@ void warpRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst
     }
 }
 
+
+// ---- 4-channel pixels (BGRx, RGBA...): the bytes OpenCV's warpAffine writes ----------------
+//
+// The 4-channel formats go through cv::warpAffine (INTER_LINEAR, WARP_INVERSE_MAP), whose
+// output they keep: this kernel writes exactly those bytes, in one pass and without
+// OpenCV's per-block coordinate and weight tables. OpenCV 4's fixed-point path: for output
+// pixel (x, y), X = (round((m1 y + m2) 1024) + 16 + round(m0 x 1024)) >> 5 (round half to
+// even, as cvRound), likewise Y; taps at (X >> 5, Y >> 5) and one on; weights from the
+// 1/32 fractions fx = X & 31, fy = Y & 31, (32 - fx)(32 - fy) 32 and so on (exact in its
+// 2^15 table), so value = (sum tap * (32-fx|fx)(32-fy|fy) + 512) >> 10. Taps outside the
+// frame read the border value or, with replicate, the nearest edge pixel (remapBilinear).
+// The matrix is the one warpGeneral hands OpenCV: shifted to the stripe's first row.
+
+// Plane matrix shifted to the stripe [row_begin, ...), as warpGeneral does before calling
+// OpenCV (whose rows then count from 0).
+struct CvStripe {
+    double m[6];
+};
+
+inline CvStripe cvStripe(const double plane_m[6], int row_begin)
+{
+    CvStripe s;
+    std::copy(plane_m, plane_m + 6, s.m);
+    s.m[2] += s.m[1] * row_begin;
+    s.m[5] += s.m[4] * row_begin;
+    return s;
+}
+
+inline int cvRoundInt(double v)
+{
+    return int(std::lrint(v));  // the default rounding mode: half to even, as cvRound
+}
+
+// One output pixel at fixed-point position (X, Y) (1/32 px), any position.
+inline void samplePixelCv4(const PlaneSpan &src, int X, int Y, bool replicate, const std::uint8_t *border,
+                           std::uint8_t *out)
+{
+    const int sx = std::clamp(X >> 5, -32768, 32767), sy = std::clamp(Y >> 5, -32768, 32767);  // saturate_cast<short>
+    const int fx = X & 31, fy = Y & 31;
+    const int w[4] = {(32 - fx) * (32 - fy), fx * (32 - fy), (32 - fx) * fy, fx * fy};
+    const std::uint8_t *tap[4];
+    for (int k = 0; k < 4; ++k) {
+        int tx = sx + (k & 1), ty = sy + (k >> 1);
+        if (tx >= 0 && ty >= 0 && tx < src.width && ty < src.height) {
+            tap[k] = src.data + std::size_t(ty) * src.stride + std::size_t(tx) * 4;
+        } else if (replicate) {
+            tx = std::clamp(tx, 0, src.width - 1);
+            ty = std::clamp(ty, 0, src.height - 1);
+            tap[k] = src.data + std::size_t(ty) * src.stride + std::size_t(tx) * 4;
+        } else {
+            tap[k] = border;
+        }
+    }
+    for (int c = 0; c < 4; ++c) {
+        const int s = tap[0][c] * w[0] + tap[1][c] * w[1] + tap[2][c] * w[2] + tap[3][c] * w[3];
+        out[c] = std::uint8_t(std::min(255, (s + 512) >> 10));
+    }
+}
+
+// Whether the 4-channel kernel takes this stripe: finite, and every output pixel's source
+// within +-30000 px (affine: the corners bound it), so that no fixed-point value overflows
+// or saturates.
+bool cv4Handles(const double m[6], int dst_width, int row_begin, int row_end)
+{
+    for (int k = 0; k < 6; ++k)
+        if (!std::isfinite(m[k]))
+            return false;
+    for (int cy : {row_begin, row_end})
+        for (int cx : {0, dst_width}) {
+            const double sx = m[0] * cx + m[1] * cy + m[2], sy = m[3] * cx + m[4] * cy + m[5];
+            if (!(std::abs(sx) < 30000.0 && std::abs(sy) < 30000.0))
+                return false;
+        }
+    return true;
+}
+
+void warpRowsCv4Scalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                       int row_end, const double plane_m[6], bool replicate, const std::uint8_t border[4])
+{
+    const CvStripe s = cvStripe(plane_m, row_begin);
+    const double *m = s.m;
+    for (int y = row_begin; y < row_end; ++y) {
+        const int yy = y - row_begin;
+        const int X0 = cvRoundInt((m[1] * yy + m[2]) * 1024) + 16, Y0 = cvRoundInt((m[4] * yy + m[5]) * 1024) + 16;
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        for (int x = 0; x < dst_width; ++x)
+            samplePixelCv4(src, (X0 + cvRoundInt(m[0] * x * 1024)) >> 5, (Y0 + cvRoundInt(m[3] * x * 1024)) >> 5,
+                           replicate, border, out + 4 * x);
+    }
+}
+
+#ifdef UAVSTAB_HAVE_X86
+
+// Eight output pixels at a time. Positions: m0 x 1024 and m3 x 1024 rounded once per call
+// into a table (as OpenCV's adelta, bdelta; the same double operations, so the same
+// roundings as the scalar code). Pixels whose four taps all lie inside the frame: the taps
+// of each four read from one 32-byte window of each source row (a permute) when the four
+// share a source row and fit in it, else with a gather. Any other pixel: per pixel.
+__attribute__((target("avx2"))) void warpRowsCv4Avx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
+                                                     int dst_width, int row_begin, int row_end,
+                                                     const double plane_m[6], bool replicate,
+                                                     const std::uint8_t border[4])
+{
+    if (src.width < 2 || src.height < 2) {
+        warpRowsCv4Scalar(src, dst, dst_stride, dst_width, row_begin, row_end, plane_m, replicate, border);
+        return;
+    }
+    const CvStripe s = cvStripe(plane_m, row_begin);
+    const double *m = s.m;
+    // The per-column deltas, rounded half to even (MXCSR's default mode, as cvRound).
+    thread_local std::vector<int> deltas;
+    const int padded = (dst_width + 7) & ~7;
+    deltas.resize(std::size_t(2 * padded));
+    int *adelta = deltas.data(), *bdelta = adelta + padded;
+    {
+        const __m256d m0 = _mm256_set1_pd(m[0]), m3 = _mm256_set1_pd(m[3]), scale = _mm256_set1_pd(1024.0);
+        for (int x = 0; x < padded; x += 4) {
+            const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(0, 1, 2, 3)));
+            _mm_storeu_si128(reinterpret_cast<__m128i *>(adelta + x),
+                             _mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_mul_pd(m0, xs), scale)));
+            _mm_storeu_si128(reinterpret_cast<__m128i *>(bdelta + x),
+                             _mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_mul_pd(m3, xs), scale)));
+        }
+    }
+    const __m256i w2 = _mm256_set1_epi32(src.width - 2), h2 = _mm256_set1_epi32(src.height - 2);
+    const __m256i m31 = _mm256_set1_epi32(31), k32 = _mm256_set1_epi32(32);
+    const __m128i stride = _mm_set1_epi32(src.stride);
+    const __m256i pair_bytes = _mm256_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15, 0, 4, 1, 5, 2,
+                                                6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
+    const __m256i one64 = _mm256_set1_epi64x(1);
+    const __m256i pixels_a = _mm256_setr_epi32(0, 0, 1, 1, 2, 2, 3, 3), pixels_b = _mm256_setr_epi32(4, 4, 5, 5, 6, 6, 7, 7);
+    const __m256i even_a = _mm256_setr_epi32(0, 0, 0, 0, 2, 2, 2, 2), odd_a = _mm256_setr_epi32(1, 1, 1, 1, 3, 3, 3, 3);
+    const __m256i even_b = _mm256_setr_epi32(4, 4, 4, 4, 6, 6, 6, 6), odd_b = _mm256_setr_epi32(5, 5, 5, 5, 7, 7, 7, 7);
+    const __m256i round = _mm256_set1_epi32(512);
+    const long long *base = reinterpret_cast<const long long *>(src.data);
+    // Left tap and the one on (8 bytes) of four pixels, one per 64-bit lane, in the rows at
+    // sy and sy + 1 (sx, sy: the four pixels', inside the frame).
+    const auto taps = [&](__m128i sx, __m128i sy, __m256i &top, __m256i &bottom) __attribute__((target("avx2"))) {
+        const int sx0 = _mm_cvtsi128_si32(sx), sy0 = _mm_cvtsi128_si32(sy);
+        const int sx3 = _mm_extract_epi32(sx, 3), sy3 = _mm_extract_epi32(sy, 3);
+        // Along a row the source moves monotonically: equal ends share a row, and
+        // sx0 <= sx3 makes sx0 the least.
+        if (sy0 == sy3 && sx3 >= sx0 && sx3 - sx0 <= 6 && sx0 + 8 <= src.width) {
+            const std::uint8_t *row = src.data + std::size_t(sy0) * src.stride + std::size_t(sx0) * 4;
+            const __m256i d = _mm256_cvtepu32_epi64(_mm_sub_epi32(sx, _mm_set1_epi32(sx0)));
+            const __m256i idx = _mm256_or_si256(d, _mm256_slli_epi64(_mm256_add_epi64(d, one64), 32));
+            top = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(row)), idx);
+            bottom = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(row + src.stride)),
+                                                 idx);
+        } else {
+            const __m128i offset = _mm_add_epi32(_mm_mullo_epi32(sy, stride), _mm_slli_epi32(sx, 2));
+            top = _mm256_i32gather_epi64(base, offset, 1);
+            bottom = _mm256_i32gather_epi64(base, _mm_add_epi32(offset, stride), 1);
+        }
+    };
+    // Four pixels' bytes (16-bit lanes) from their taps and weights.
+    const auto blend = [&](__m256i top, __m256i bottom, __m256i wx, __m256i wy_even, __m256i wy_odd)
+        __attribute__((target("avx2"))) {
+        const __m256i t = _mm256_maddubs_epi16(_mm256_shuffle_epi8(top, pair_bytes), wx);
+        const __m256i b = _mm256_maddubs_epi16(_mm256_shuffle_epi8(bottom, pair_bytes), wx);
+        const __m256i lo = _mm256_madd_epi16(_mm256_unpacklo_epi16(t, b), wy_even);
+        const __m256i hi = _mm256_madd_epi16(_mm256_unpackhi_epi16(t, b), wy_odd);
+        return _mm256_packs_epi32(_mm256_srai_epi32(_mm256_add_epi32(lo, round), 10),
+                                  _mm256_srai_epi32(_mm256_add_epi32(hi, round), 10));
+    };
+    for (int y = row_begin; y < row_end; ++y) {
+        const int yy = y - row_begin;
+        const int X0 = cvRoundInt((m[1] * yy + m[2]) * 1024) + 16, Y0 = cvRoundInt((m[4] * yy + m[5]) * 1024) + 16;
+        const __m256i X0v = _mm256_set1_epi32(X0), Y0v = _mm256_set1_epi32(Y0);
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        int x = 0;
+        for (; x + 8 <= dst_width; x += 8) {
+            const __m256i X = _mm256_srai_epi32(
+                _mm256_add_epi32(X0v, _mm256_loadu_si256(reinterpret_cast<const __m256i *>(adelta + x))), 5);
+            const __m256i Y = _mm256_srai_epi32(
+                _mm256_add_epi32(Y0v, _mm256_loadu_si256(reinterpret_cast<const __m256i *>(bdelta + x))), 5);
+            const __m256i sx = _mm256_srai_epi32(X, 5), sy = _mm256_srai_epi32(Y, 5);
+            // Inside: 0 <= sx <= width - 2 and 0 <= sy <= height - 2 (unsigned compares).
+            const __m256i inside = _mm256_and_si256(_mm256_cmpeq_epi32(_mm256_min_epu32(sx, w2), sx),
+                                                    _mm256_cmpeq_epi32(_mm256_min_epu32(sy, h2), sy));
+            if (_mm256_movemask_epi8(inside) != -1) {
+                alignas(32) int xv[8], yv[8];
+                _mm256_store_si256(reinterpret_cast<__m256i *>(xv), X);
+                _mm256_store_si256(reinterpret_cast<__m256i *>(yv), Y);
+                for (int j = 0; j < 8; ++j)
+                    samplePixelCv4(src, xv[j], yv[j], replicate, border, out + 4 * (x + j));
+                continue;
+            }
+            const __m256i fx = _mm256_and_si256(X, m31), fy = _mm256_and_si256(Y, m31);
+            // Horizontal weights (32 - fx, fx) as byte pairs, one pixel per 64-bit lane;
+            // vertical ones (32 - fy, fy) as 16-bit pairs, one pixel per 4 lanes.
+            const __m256i wx1 = _mm256_or_si256(_mm256_sub_epi32(k32, fx), _mm256_slli_epi32(fx, 8));
+            const __m256i wx2 = _mm256_or_si256(wx1, _mm256_slli_epi32(wx1, 16));
+            const __m256i wy = _mm256_or_si256(_mm256_sub_epi32(k32, fy), _mm256_slli_epi32(fy, 16));
+            __m256i top, bottom;
+            taps(_mm256_castsi256_si128(sx), _mm256_castsi256_si128(sy), top, bottom);
+            const __m256i a = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_a),
+                                    _mm256_permutevar8x32_epi32(wy, even_a), _mm256_permutevar8x32_epi32(wy, odd_a));
+            taps(_mm256_extracti128_si256(sx, 1), _mm256_extracti128_si256(sy, 1), top, bottom);
+            const __m256i b = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_b),
+                                    _mm256_permutevar8x32_epi32(wy, even_b), _mm256_permutevar8x32_epi32(wy, odd_b));
+            // a: pixels 0 1 | 2 3, b: 4 5 | 6 7 (16-bit) -> bytes 0 1 4 5 | 2 3 6 7 -> 0..7.
+            _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + 4 * x),
+                                _mm256_permute4x64_epi64(_mm256_packus_epi16(a, b), 0xd8));
+        }
+        for (; x < dst_width; ++x)
+            samplePixelCv4(src, (X0 + adelta[x]) >> 5, (Y0 + bdelta[x]) >> 5, replicate, border, out + 4 * x);
+    }
+}
+
+#endif // UAVSTAB_HAVE_X86
+
 } // namespace
 
 void warpPlaneBilinear16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
@@ -704,6 +918,38 @@ bool runKernel(WarpKernel kernel, const PlaneSpan &src, std::uint8_t *dst, int d
 }
 
 } // namespace
+
+bool warpPlaneBilinear4(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                        int row_end, const double m[6], bool replicate, const std::uint8_t border[4], WarpKernel kernel)
+{
+    if (!warpKernelAvailable(kernel) || !cv4Handles(m, dst_width, row_begin, row_end) || src.width < 1 ||
+        src.height < 1)
+        return false;
+    switch (kernel) {
+    case WarpKernel::Scalar:
+        warpRowsCv4Scalar(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
+        return true;
+    case WarpKernel::Avx2:
+#ifdef UAVSTAB_HAVE_X86
+        warpRowsCv4Avx2(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
+        return true;
+#else
+        return false;
+#endif
+    case WarpKernel::Simd128:
+        return false;
+    }
+    return false;
+}
+
+bool warpPlaneBilinear4(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                        int row_end, const double m[6], bool replicate, const std::uint8_t border[4])
+{
+    // Only the AVX2 kernel: elsewhere OpenCV's own warp is faster than the scalar one.
+    return warpKernel() == WarpKernel::Avx2 &&
+           warpPlaneBilinear4(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border,
+                              WarpKernel::Avx2);
+}
 
 bool warpPlaneBilinearHandles(const PlaneSpan &src, int channels, const double m[6])
 {
