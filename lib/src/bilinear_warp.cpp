@@ -192,93 +192,158 @@ __attribute__((target("avx2"))) inline __m256i interpolateRows(const std::uint8_
     return _mm256_add_epi16(t, _mm256_mulhrs_epi16(_mm256_sub_epi16(b, t), fy_scaled));
 }
 
-template <class Matrices>
-__attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
-                                                  int dst_width, int row_begin, int row_end, int channels,
-                                                  Matrices &matrices, bool replicate, const std::uint8_t border[4])
+// Where a run of chunks of one row reads (up to kPlanChunks at a time), decided four chunks
+// at once in double vectors: the same operations, so the same roundings and decisions,
+// as planChunk (no fused multiply-adds: the target has none).
+constexpr int kPlanChunks = 64;
+
+struct RowPlan {
+    alignas(32) int ix0[kPlanChunks];
+    alignas(32) int iy0[kPlanChunks];
+    alignas(32) int frx[kPlanChunks];
+    alignas(32) int fry[kPlanChunks];
+    alignas(32) int ky_last[kPlanChunks];
+    alignas(32) int vector_ok[kPlanChunks];  // -1: a vector kernel takes the chunk
+};
+
+__attribute__((target("avx2"))) inline void planChunksAvx2(const PlaneSpan &src, int channels, const double m[6],
+                                                           const LaneSteps &steps, int x_begin, int chunks, int y,
+                                                           RowPlan &plan)
 {
+    const __m256d m0 = _mm256_set1_pd(m[0]), m3 = _mm256_set1_pd(m[3]);
+    const __m256d row_x = _mm256_set1_pd(m[1] * y), row_y = _mm256_set1_pd(m[4] * y);
+    const __m256d m2 = _mm256_set1_pd(m[2]), m5 = _mm256_set1_pd(m[5]);
+    const __m256d last_x = _mm256_set1_pd(m[0] * (kChunk - 1)), last_y = _mm256_set1_pd(m[3] * (kChunk - 1));
+    const __m256d zero = _mm256_setzero_pd();
+    const __m256d width1 = _mm256_set1_pd(double(src.width - 1)), height1 = _mm256_set1_pd(double(src.height - 1));
+    const __m256d k1024 = _mm256_set1_pd(1024.0);
+    const __m128i last_window = _mm_set1_epi32(steps.offset_x[steps.vectors - 1][steps.half_pixels * channels]);
+    const __m128i last_offset_y = _mm_set1_epi32(steps.offset_y[steps.vectors - 1][15]);
+    const __m128i row_bytes = _mm_set1_epi32(src.width * channels - 16);
+    const __m128i height = _mm_set1_epi32(src.height), one = _mm_set1_epi32(1), zero_i = _mm_setzero_si128();
+    for (int c = 0; c < chunks; c += 4) {
+        const int x = x_begin + c * kChunk;
+        const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(0, 16, 32, 48)));
+        const __m256d sx0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m0, xs), row_x), m2);
+        const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), row_y), m5);
+        const __m256d sx1 = _mm256_add_pd(sx0, last_x), sy1 = _mm256_add_pd(sy0, last_y);
+        // Every tap inside (false for NaN, as planChunk's comparisons).
+        const __m256d inside = _mm256_and_pd(
+            _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sx0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sx1, zero, _CMP_GE_OQ)),
+                          _mm256_and_pd(_mm256_cmp_pd(sx0, width1, _CMP_LT_OQ), _mm256_cmp_pd(sx1, width1, _CMP_LT_OQ))),
+            _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sy0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sy1, zero, _CMP_GE_OQ)),
+                          _mm256_and_pd(_mm256_cmp_pd(sy0, height1, _CMP_LT_OQ), _mm256_cmp_pd(sy1, height1, _CMP_LT_OQ))));
+        // Inside, sx0, sy0 >= 0: truncation is the floor. Lanes outside hold anything.
+        const __m128i ix0 = _mm256_cvttpd_epi32(sx0), iy0 = _mm256_cvttpd_epi32(sy0);
+        const __m128i frx = _mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(sx0, _mm256_cvtepi32_pd(ix0)), k1024));
+        const __m128i fry = _mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(sy0, _mm256_cvtepi32_pd(iy0)), k1024));
+        const __m128i ky_last = _mm_srai_epi32(_mm_add_epi32(fry, last_offset_y), 10);
+        const __m128i ky_min = _mm_min_epi32(zero_i, ky_last), ky_max = _mm_max_epi32(zero_i, ky_last);
+        // planChunk's refusals: the last window past the row, two row steps, rows outside.
+        const __m128i window_end =
+            _mm_mullo_epi32(_mm_add_epi32(ix0, _mm_srai_epi32(_mm_add_epi32(frx, last_window), 10)),
+                            _mm_set1_epi32(channels));
+        const __m128i refused = _mm_or_si128(
+            _mm_or_si128(_mm_cmpgt_epi32(window_end, row_bytes), _mm_cmpgt_epi32(_mm_sub_epi32(ky_max, ky_min), one)),
+            _mm_or_si128(_mm_cmpgt_epi32(_mm_add_epi32(_mm_add_epi32(iy0, ky_max), one), _mm_sub_epi32(height, one)),
+                         _mm_cmpgt_epi32(zero_i, _mm_add_epi32(iy0, ky_min))));
+        // The double mask's lanes are 64-bit: take one 32-bit half of each.
+        const __m128i inside32 = _mm256_castsi256_si128(
+            _mm256_permutevar8x32_epi32(_mm256_castpd_si256(inside), _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0)));
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.ix0 + c), ix0);
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.iy0 + c), iy0);
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.frx + c), frx);
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.fry + c), fry);
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.ky_last + c), ky_last);
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.vector_ok + c), _mm_andnot_si128(refused, inside32));
+    }
+}
+
+template <int C, class Matrices>
+__attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
+                                                  int dst_width, int row_begin, int row_end, Matrices &matrices,
+                                                  bool replicate, const std::uint8_t border[4])
+{
+    constexpr int channels = C;
     // The lane layout (channel, half) is the same for every matrix.
     const __m256i channel = _mm256_load_si256(reinterpret_cast<const __m256i *>(matrices.steps().channel));
-    const __m256i is_high = _mm256_load_si256(reinterpret_cast<const __m256i *>(matrices.steps().is_high_half));
+    const __m256i high_mask = _mm256_sub_epi16(
+        _mm256_setzero_si256(), _mm256_load_si256(reinterpret_cast<const __m256i *>(matrices.steps().is_high_half)));
     const __m256i frac_mask = _mm256_set1_epi16(kOne - 1);
     const __m256i one = _mm256_set1_epi16(kOne);
     const __m256i round = _mm256_set1_epi16(kOne / 2);
-    const __m256i chans = _mm256_set1_epi16(std::int16_t(channels));
     const __m256i next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
-    const int row_bytes = src.width * channels;
+    const std::size_t stride = std::size_t(src.stride);
+    RowPlan plan;
 
     for (int y = row_begin; y < row_end; ++y) {
         const double *m = matrices.row(y);
         const LaneSteps &steps = matrices.steps();
-        const int H = steps.half_pixels;
-        const double last_x = m[0] * (kChunk - 1), last_y = m[3] * (kChunk - 1);
-        const int last_window = steps.offset_x[steps.vectors - 1][H * channels];
-        auto scalar = [&](std::uint8_t *out, int x, int count) {
-            for (int j = 0; j < count; ++j)
-                samplePixel(src, channels, m[0] * (x + j) + m[1] * y + m[2], m[3] * (x + j) + m[4] * y + m[5],
-                            replicate, border, out + (x + j) * channels);
-        };
+        constexpr int H = 8 / C;
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
-        int x = 0;
-        for (; x + kChunk <= dst_width; x += kChunk) {
-            const double sx0 = m[0] * x + m[1] * y + m[2];
-            const double sy0 = m[3] * x + m[4] * y + m[5];
-            const double sx1 = sx0 + last_x, sy1 = sy0 + last_y;
-            // Every tap inside the frame (linear, so the chunk's ends bound it)...
-            if (!(std::min(sx0, sx1) >= 0.0 && std::max(sx0, sx1) < src.width - 1 && std::min(sy0, sy1) >= 0.0 &&
-                  std::max(sy0, sy1) < src.height - 1)) {
-                scalar(out, x, kChunk);
-                continue;
-            }
-            const int ix0 = int(sx0), iy0 = int(std::floor(sy0));
-            const int frx = int((sx0 - ix0) * 1024.0), fry = int((sy0 - iy0) * 1024.0);
-            const int ky_last = (fry + steps.offset_y[steps.vectors - 1][15]) >> 10;
-            const int ky_min = std::min(0, ky_last), ky_max = std::max(0, ky_last);
-            // ...every window read inside its row, at most one row step in the chunk.
-            if ((ix0 + ((frx + last_window) >> 10)) * channels + 16 > row_bytes || ky_max - ky_min > 1 ||
-                iy0 + ky_max + 1 >= src.height || iy0 + ky_min < 0) {
-                scalar(out, x, kChunk);
-                continue;
-            }
-            const std::uint8_t *row = src.data + std::size_t(iy0 + ky_min) * src.stride;
-            const __m256i frx_v = _mm256_set1_epi16(std::int16_t(frx));
-            const __m256i fry_v = _mm256_set1_epi16(std::int16_t(fry));
-            const __m256i ky_step = _mm256_set1_epi16(std::int16_t(ky_max));
-            for (int v = 0; v < steps.vectors; ++v) {
-                const __m256i rel_x =
-                    _mm256_add_epi16(frx_v, _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_x[v])));
-                const __m256i rel_y =
-                    _mm256_add_epi16(fry_v, _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_y[v])));
-                // Each half reads a window that starts at its first pixel's left tap.
-                const int k0 = (frx + steps.offset_x[v][0]) >> 10;
-                const int k1 = (frx + steps.offset_x[v][H * channels]) >> 10;
-                const __m256i kx = _mm256_srli_epi16(rel_x, 10);
-                const __m256i fx = _mm256_and_si256(_mm256_srli_epi16(rel_x, 10 - kFracBits), frac_mask);
-                const __m256i fy = _mm256_and_si256(_mm256_srai_epi16(rel_y, 10 - kFracBits), frac_mask);
-                const __m256i window_k = _mm256_add_epi16(
-                    _mm256_set1_epi16(std::int16_t(k0)), _mm256_mullo_epi16(is_high, _mm256_set1_epi16(std::int16_t(k1 - k0))));
-                // Shuffle control: byte of the left tap in the lane's window, right tap one pixel on.
-                const __m256i left =
-                    _mm256_add_epi16(_mm256_mullo_epi16(_mm256_sub_epi16(kx, window_k), chans), channel);
-                const __m256i ctrl = _mm256_add_epi16(left, _mm256_add_epi16(_mm256_slli_epi16(left, 8), next_tap));
-                const __m256i wx = _mm256_or_si256(_mm256_sub_epi16(one, fx), _mm256_slli_epi16(fx, 8));
-                const __m256i fy_scaled = _mm256_slli_epi16(fy, 9);
-                const int byte0 = (ix0 + k0) * channels, byte1 = (ix0 + k1) * channels;
-
-                __m256i value = interpolateRows(row, row + src.stride, byte0, byte1, ctrl, wx, fy_scaled);
-                if (ky_max != ky_min) {
-                    const __m256i lower = interpolateRows(row + src.stride, row + 2 * std::size_t(src.stride), byte0,
-                                                          byte1, ctrl, wx, fy_scaled);
-                    const __m256i ky = _mm256_srai_epi16(rel_y, 10);
-                    value = _mm256_blendv_epi8(value, lower, _mm256_cmpeq_epi16(ky, ky_step));
+        const int chunks_in_row = dst_width / kChunk;
+        // The chunk's window offsets, for its two halves.
+        alignas(32) int window_lo[C], window_hi[C];
+        __m256i offset_x[C], offset_y[C];
+        for (int v = 0; v < C; ++v) {
+            window_lo[v] = steps.offset_x[v][0];
+            window_hi[v] = steps.offset_x[v][H * channels];
+            offset_x[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_x[v]));
+            offset_y[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_y[v]));
+        }
+        for (int first = 0; first < chunks_in_row; first += kPlanChunks) {
+            const int chunks = std::min(kPlanChunks, chunks_in_row - first);
+            planChunksAvx2(src, channels, m, steps, first * kChunk, chunks, y, plan);
+            for (int c = 0; c < chunks; ++c) {
+                const int x = (first + c) * kChunk;
+                if (!plan.vector_ok[c]) {
+                    samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
+                    continue;
                 }
-                const __m256i result = _mm256_srli_epi16(_mm256_add_epi16(value, round), kFracBits);
-                const __m256i packed = _mm256_permute4x64_epi64(_mm256_packus_epi16(result, result), 0x08);
-                _mm_storeu_si128(reinterpret_cast<__m128i *>(out + x * channels + v * 16),
-                                 _mm256_castsi256_si128(packed));
+                const int ix0 = plan.ix0[c], iy0 = plan.iy0[c], frx = plan.frx[c], fry = plan.fry[c];
+                const int ky_min = std::min(0, plan.ky_last[c]), ky_max = std::max(0, plan.ky_last[c]);
+                const std::uint8_t *row = src.data + std::size_t(iy0 + ky_min) * stride;
+                const __m256i frx_v = _mm256_set1_epi16(std::int16_t(frx));
+                const __m256i fry_v = _mm256_set1_epi16(std::int16_t(fry));
+                const __m256i ky_step = _mm256_set1_epi16(std::int16_t(ky_max));
+                for (int v = 0; v < C; ++v) {
+                    const __m256i rel_x = _mm256_add_epi16(frx_v, offset_x[v]);
+                    const __m256i rel_y = _mm256_add_epi16(fry_v, offset_y[v]);
+                    // Each half reads a window that starts at its first pixel's left tap.
+                    const int k0 = (frx + window_lo[v]) >> 10;
+                    const int k1 = (frx + window_hi[v]) >> 10;
+                    const __m256i kx = _mm256_srli_epi16(rel_x, 10);
+                    const __m256i fx = _mm256_and_si256(_mm256_srli_epi16(rel_x, 10 - kFracBits), frac_mask);
+                    const __m256i fy = _mm256_and_si256(_mm256_srai_epi16(rel_y, 10 - kFracBits), frac_mask);
+                    const __m256i window_k = _mm256_add_epi16(
+                        _mm256_set1_epi16(std::int16_t(k0)),
+                        _mm256_and_si256(high_mask, _mm256_set1_epi16(std::int16_t(k1 - k0))));
+                    // Shuffle control: byte of the left tap in the lane's window, right tap one pixel on.
+                    __m256i left = _mm256_sub_epi16(kx, window_k);
+                    if (C == 2)
+                        left = _mm256_add_epi16(left, left);
+                    left = _mm256_add_epi16(left, channel);
+                    const __m256i ctrl = _mm256_add_epi16(left, _mm256_add_epi16(_mm256_slli_epi16(left, 8), next_tap));
+                    const __m256i wx = _mm256_or_si256(_mm256_sub_epi16(one, fx), _mm256_slli_epi16(fx, 8));
+                    const __m256i fy_scaled = _mm256_slli_epi16(fy, 9);
+                    const int byte0 = (ix0 + k0) * channels, byte1 = (ix0 + k1) * channels;
+
+                    __m256i value = interpolateRows(row, row + stride, byte0, byte1, ctrl, wx, fy_scaled);
+                    if (ky_max != ky_min) {
+                        const __m256i lower =
+                            interpolateRows(row + stride, row + 2 * stride, byte0, byte1, ctrl, wx, fy_scaled);
+                        const __m256i ky = _mm256_srai_epi16(rel_y, 10);
+                        value = _mm256_blendv_epi8(value, lower, _mm256_cmpeq_epi16(ky, ky_step));
+                    }
+                    const __m256i result = _mm256_srli_epi16(_mm256_add_epi16(value, round), kFracBits);
+                    const __m256i packed = _mm256_permute4x64_epi64(_mm256_packus_epi16(result, result), 0x08);
+                    _mm_storeu_si128(reinterpret_cast<__m128i *>(out + x * channels + v * 16),
+                                     _mm256_castsi256_si128(packed));
+                }
             }
         }
-        scalar(out, x, dst_width - x);
+        const int x = chunks_in_row * kChunk;
+        samplePixels(src, channels, m, replicate, border, out, x, y, dst_width - x);
     }
 }
 
@@ -898,7 +963,10 @@ bool runKernel(WarpKernel kernel, const PlaneSpan &src, std::uint8_t *dst, int d
     switch (kernel) {
     case WarpKernel::Avx2:
 #ifdef UAVSTAB_HAVE_X86
-        warpRowsAvx2(src, dst, dst_stride, dst_width, row_begin, row_end, channels, matrices, replicate, border);
+        if (channels == 1)
+            warpRowsAvx2<1>(src, dst, dst_stride, dst_width, row_begin, row_end, matrices, replicate, border);
+        else
+            warpRowsAvx2<2>(src, dst, dst_stride, dst_width, row_begin, row_end, matrices, replicate, border);
         return true;
 #else
         return false;

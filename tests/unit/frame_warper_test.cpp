@@ -674,3 +674,53 @@ TEST(WarpKernels, FourChannelFramesWarpAsOpenCvWarpsThem)
         }
     }
 }
+
+TEST(WarpKernels, WideRowsWriteTheSameBytesAsTheScalarReference)
+{
+    // Rows of more than 1024 pixels (the AVX2 kernel plans a row's chunks 64 at a time),
+    // through every kernel, with one matrix and with a matrix per row.
+    std::mt19937 rng(20261203);
+    const auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+    const auto integer = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
+    for (int trial = 0; trial < 60; ++trial) {
+        const int channels = 1 + trial % 2;
+        const int w = integer(1030, 2400), h = integer(8, 24);
+        const int src_stride = w * channels + integer(0, 33);
+        std::vector<std::uint8_t> src(std::size_t(src_stride) * (h - 1) + std::size_t(w) * channels);
+        for (auto &b : src)
+            b = std::uint8_t(rng());
+        const double turn = uniform(-0.004, 0.004), scale = uniform(0.85, 1.2);
+        std::vector<std::array<double, 6>> rows(static_cast<std::size_t>(h));
+        for (int y = 0; y < h; ++y) {
+            double *m = rows[std::size_t(y)].data();
+            m[0] = scale * (1.0 - 0.5 * turn * turn);
+            m[1] = -scale * turn;
+            m[3] = scale * turn;
+            m[4] = m[0];
+            m[2] = uniform(-0.1 * w, 0.1 * w) * (trial % 3 == 0 ? 0.0 : 1.0) + (trial % 4 == 0 ? 0.5 * y : 0.0);
+            m[5] = uniform(-2.0, 2.0);
+            if (trial % 2 == 0 && y > 0)
+                rows[std::size_t(y)] = rows[0];
+        }
+        const int dst_width = w + integer(-20, 20), dst_stride = dst_width * channels + integer(0, 16);
+        const bool replicate = rng() % 2;
+        const std::uint8_t border[4] = {16, 128, 0, 0};
+        const PlaneSpan span{src.data(), src_stride, w, h};
+        std::vector<std::uint8_t> reference(std::size_t(dst_stride) * h, 0xa5), single_ref(reference);
+        ASSERT_TRUE(warpPlaneBilinearRows(span, reference.data(), dst_stride, dst_width, 0, h, channels, rows.data(),
+                                          replicate, border, WarpKernel::Scalar));
+        ASSERT_TRUE(warpPlaneBilinear(span, single_ref.data(), dst_stride, dst_width, 0, h, channels, rows[0].data(),
+                                      replicate, border, WarpKernel::Scalar));
+        for (WarpKernel kernel : kWarpKernels) {
+            if (!warpKernelAvailable(kernel))
+                continue;
+            std::vector<std::uint8_t> out(reference.size(), 0xa5), single(reference.size(), 0xa5);
+            ASSERT_TRUE(warpPlaneBilinearRows(span, out.data(), dst_stride, dst_width, 0, h, channels, rows.data(),
+                                              replicate, border, kernel));
+            ASSERT_TRUE(warpPlaneBilinear(span, single.data(), dst_stride, dst_width, 0, h, channels, rows[0].data(),
+                                          replicate, border, kernel));
+            ASSERT_TRUE(out == reference) << warpKernelName(kernel) << " per row, trial " << trial;
+            ASSERT_TRUE(single == single_ref) << warpKernelName(kernel) << " one matrix, trial " << trial;
+        }
+    }
+}
