@@ -779,9 +779,6 @@ __attribute__((target("avx2"))) void warpRowsCv4Avx2(const PlaneSpan &src, std::
                                                 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
     const __m256i one64 = _mm256_set1_epi64x(1);
     const __m256i pixels_a = _mm256_setr_epi32(0, 0, 1, 1, 2, 2, 3, 3), pixels_b = _mm256_setr_epi32(4, 4, 5, 5, 6, 6, 7, 7);
-    const __m256i even_a = _mm256_setr_epi32(0, 0, 0, 0, 2, 2, 2, 2), odd_a = _mm256_setr_epi32(1, 1, 1, 1, 3, 3, 3, 3);
-    const __m256i even_b = _mm256_setr_epi32(4, 4, 4, 4, 6, 6, 6, 6), odd_b = _mm256_setr_epi32(5, 5, 5, 5, 7, 7, 7, 7);
-    const __m256i round = _mm256_set1_epi32(512);
     const long long *base = reinterpret_cast<const long long *>(src.data);
     // Left tap and the one on (8 bytes) of four pixels, one per 64-bit lane, in the rows at
     // sy and sy + 1 (sx, sy: the four pixels', inside the frame).
@@ -803,15 +800,17 @@ __attribute__((target("avx2"))) void warpRowsCv4Avx2(const PlaneSpan &src, std::
             bottom = _mm256_i32gather_epi64(base, _mm_add_epi32(offset, stride), 1);
         }
     };
-    // Four pixels' bytes (16-bit lanes) from their taps and weights.
-    const auto blend = [&](__m256i top, __m256i bottom, __m256i wx, __m256i wy_even, __m256i wy_odd)
-        __attribute__((target("avx2"))) {
+    // Four pixels' bytes (16-bit lanes) from their taps and weights: t and b the two rows'
+    // horizontal blends (x32, exact), then ((32 - fy) t + fy b + 512) >> 10 =
+    // (t + floor(fy (b - t) / 32) + 16) >> 5 (the same integer), the floor a mulhi of
+    // 2 (b - t) by fy << 10.
+    const __m256i sixteen = _mm256_set1_epi16(16);
+    const auto blend = [&](__m256i top, __m256i bottom, __m256i wx, __m256i fy_scaled) __attribute__((target("avx2"))) {
         const __m256i t = _mm256_maddubs_epi16(_mm256_shuffle_epi8(top, pair_bytes), wx);
         const __m256i b = _mm256_maddubs_epi16(_mm256_shuffle_epi8(bottom, pair_bytes), wx);
-        const __m256i lo = _mm256_madd_epi16(_mm256_unpacklo_epi16(t, b), wy_even);
-        const __m256i hi = _mm256_madd_epi16(_mm256_unpackhi_epi16(t, b), wy_odd);
-        return _mm256_packs_epi32(_mm256_srai_epi32(_mm256_add_epi32(lo, round), 10),
-                                  _mm256_srai_epi32(_mm256_add_epi32(hi, round), 10));
+        const __m256i d = _mm256_sub_epi16(b, t);
+        const __m256i q = _mm256_mulhi_epi16(_mm256_add_epi16(d, d), fy_scaled);
+        return _mm256_srai_epi16(_mm256_add_epi16(_mm256_add_epi16(t, q), sixteen), 5);
     };
     for (int y = row_begin; y < row_end; ++y) {
         const int yy = y - row_begin;
@@ -837,18 +836,19 @@ __attribute__((target("avx2"))) void warpRowsCv4Avx2(const PlaneSpan &src, std::
                 continue;
             }
             const __m256i fx = _mm256_and_si256(X, m31), fy = _mm256_and_si256(Y, m31);
-            // Horizontal weights (32 - fx, fx) as byte pairs, one pixel per 64-bit lane;
-            // vertical ones (32 - fy, fy) as 16-bit pairs, one pixel per 4 lanes.
+            // Horizontal weights (32 - fx, fx) as byte pairs and the vertical fy << 10, one
+            // pixel per 64-bit lane.
             const __m256i wx1 = _mm256_or_si256(_mm256_sub_epi32(k32, fx), _mm256_slli_epi32(fx, 8));
             const __m256i wx2 = _mm256_or_si256(wx1, _mm256_slli_epi32(wx1, 16));
-            const __m256i wy = _mm256_or_si256(_mm256_sub_epi32(k32, fy), _mm256_slli_epi32(fy, 16));
+            const __m256i fy1 = _mm256_slli_epi32(fy, 10);
+            const __m256i fy2 = _mm256_or_si256(fy1, _mm256_slli_epi32(fy1, 16));
             __m256i top, bottom;
             taps(_mm256_castsi256_si128(sx), _mm256_castsi256_si128(sy), top, bottom);
             const __m256i a = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_a),
-                                    _mm256_permutevar8x32_epi32(wy, even_a), _mm256_permutevar8x32_epi32(wy, odd_a));
+                                    _mm256_permutevar8x32_epi32(fy2, pixels_a));
             taps(_mm256_extracti128_si256(sx, 1), _mm256_extracti128_si256(sy, 1), top, bottom);
             const __m256i b = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_b),
-                                    _mm256_permutevar8x32_epi32(wy, even_b), _mm256_permutevar8x32_epi32(wy, odd_b));
+                                    _mm256_permutevar8x32_epi32(fy2, pixels_b));
             // a: pixels 0 1 | 2 3, b: 4 5 | 6 7 (16-bit) -> bytes 0 1 4 5 | 2 3 6 7 -> 0..7.
             _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + 4 * x),
                                 _mm256_permute4x64_epi64(_mm256_packus_epi16(a, b), 0xd8));
