@@ -999,6 +999,9 @@ bool warpPlaneBilinear4(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
         return true;
     case WarpKernel::Avx2:
 #ifdef UAVSTAB_HAVE_X86
+        // Its gathers take 32-bit byte offsets into the plane.
+        if (std::size_t(src.stride) * std::size_t(src.height) >= std::size_t(1) << 31)
+            return false;
         warpRowsCv4Avx2(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
         return true;
 #else
