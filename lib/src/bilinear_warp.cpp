@@ -174,6 +174,19 @@ inline void samplePixels(const PlaneSpan &src, int channels, const double m[6], 
                     border, out + (x + j) * channels);
 }
 
+// The plan of up to kPlanChunks chunks of a row, for the vector kernels (planChunksAvx2,
+// planChunksPortable): per chunk what planChunk returns.
+constexpr int kPlanChunks = 64;
+
+struct RowPlan {
+    alignas(32) int ix0[kPlanChunks];
+    alignas(32) int iy0[kPlanChunks];
+    alignas(32) int frx[kPlanChunks];
+    alignas(32) int fry[kPlanChunks];
+    alignas(32) int ky_last[kPlanChunks];
+    alignas(32) int vector_ok[kPlanChunks];  // -1: a vector kernel takes the chunk
+};
+
 #ifdef UAVSTAB_HAVE_X86
 
 __attribute__((target("avx2"))) inline __m256i load2(const std::uint8_t *lo, const std::uint8_t *hi)
@@ -195,17 +208,6 @@ __attribute__((target("avx2"))) inline __m256i interpolateRows(const std::uint8_
 // Where a run of chunks of one row reads (up to kPlanChunks at a time), decided four chunks
 // at once in double vectors: the same operations, so the same roundings and decisions,
 // as planChunk (no fused multiply-adds: the target has none).
-constexpr int kPlanChunks = 64;
-
-struct RowPlan {
-    alignas(32) int ix0[kPlanChunks];
-    alignas(32) int iy0[kPlanChunks];
-    alignas(32) int frx[kPlanChunks];
-    alignas(32) int fry[kPlanChunks];
-    alignas(32) int ky_last[kPlanChunks];
-    alignas(32) int vector_ok[kPlanChunks];  // -1: a vector kernel takes the chunk
-};
-
 __attribute__((target("avx2"))) inline void planChunksAvx2(const PlaneSpan &src, int channels, const double m[6],
                                                            const LaneSteps &steps, int x_begin, int chunks, int y,
                                                            RowPlan &plan)
@@ -387,6 +389,42 @@ inline bool planChunk(const PlaneSpan &src, int channels, const double m[6], con
              p.iy0 + p.ky_max + 1 >= src.height || p.iy0 + p.ky_min < 0);
 }
 
+// planChunk for chunks [x_begin / 16, + chunks) of row y, without branches (so that the
+// compiler may vectorise it): the same expressions in the same order, so the same
+// positions and decisions. Used by the 128-bit kernel.
+inline void planChunksPortable(const PlaneSpan &src, int channels, const double m[6], const LaneSteps &steps,
+                               int x_begin, int chunks, int y, RowPlan &plan)
+{
+    const double last_x = m[0] * (kChunk - 1), last_y = m[3] * (kChunk - 1);
+    const double row_x = m[1] * y, row_y = m[4] * y;
+    const double width1 = src.width - 1, height1 = src.height - 1;
+    const int last_window = steps.offset_x[steps.vectors - 1][steps.half_pixels * channels];
+    const int last_offset_y = steps.offset_y[steps.vectors - 1][15];
+    const int row_bytes = src.width * channels;
+    for (int c = 0; c < chunks; ++c) {
+        const int x = x_begin + c * kChunk;
+        const double sx0 = m[0] * x + row_x + m[2];
+        const double sy0 = m[3] * x + row_y + m[5];
+        const double sx1 = sx0 + last_x, sy1 = sy0 + last_y;
+        const bool inside = (sx0 >= 0.0) & (sx1 >= 0.0) & (sx0 < width1) & (sx1 < width1) & (sy0 >= 0.0) &
+                            (sy1 >= 0.0) & (sy0 < height1) & (sy1 < height1);
+        // Inside, sx0, sy0 >= 0: truncation is the floor. Outside: any in-range value.
+        const double cx = inside ? sx0 : 0.0, cy = inside ? sy0 : 0.0;
+        const int ix0 = int(cx), iy0 = int(cy);
+        const int frx = int((cx - ix0) * 1024.0), fry = int((cy - iy0) * 1024.0);
+        const int ky_last = (fry + last_offset_y) >> 10;
+        const int ky_min = std::min(0, ky_last), ky_max = std::max(0, ky_last);
+        const bool refused = ((ix0 + ((frx + last_window) >> 10)) * channels + 16 > row_bytes) |
+                             (ky_max - ky_min > 1) | (iy0 + ky_max + 1 >= src.height) | (iy0 + ky_min < 0);
+        plan.ix0[c] = ix0;
+        plan.iy0[c] = iy0;
+        plan.frx[c] = frx;
+        plan.fry[c] = fry;
+        plan.ky_last[c] = ky_last;
+        plan.vector_ok[c] = inside & !refused ? -1 : 0;
+    }
+}
+
 
 // The reference: what every vector kernel computes, one byte at a time. Lane (v, l) is
 // pixel v * 16 / C + l / C, channel l % C: taps at the integer part of its position, weights
@@ -479,59 +517,69 @@ UAVSTAB_TARGET_SIMD128 inline v_int16x8 interpolateRows128(const std::uint8_t *t
     return t + mulRoundShift15(b - t, fy_scaled);
 }
 
-template <class Matrices>
+template <int C, class Matrices>
 UAVSTAB_TARGET_SIMD128 void warpRows128(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width,
-                                        int row_begin, int row_end, int channels, Matrices &matrices, bool replicate,
+                                        int row_begin, int row_end, Matrices &matrices, bool replicate,
                                         const std::uint8_t border[4])
 {
+    constexpr int channels = C;
     const std::size_t stride = std::size_t(src.stride);
     const v_int16x8 frac_mask = cv::v_setall_s16(kOne - 1);
     const v_int16x8 one = cv::v_setall_s16(kOne);
     const v_int16x8 round = cv::v_setall_s16(kOne / 2);
-    const v_int16x8 chans = cv::v_setall_s16(std::int16_t(channels));
     const v_int16x8 next_tap = cv::v_setall_s16(std::int16_t(channels << 8));
+    RowPlan plan;
     for (int y = row_begin; y < row_end; ++y) {
         const double *m = matrices.row(y);
         const LaneSteps &steps = matrices.steps();
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
-        int x = 0;
-        for (; x + kChunk <= dst_width; x += kChunk) {
-            ChunkPlan p;
-            if (!planChunk(src, channels, m, steps, x, y, p)) {
-                samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
-                continue;
-            }
-            const std::uint8_t *row = src.data + std::size_t(p.iy0 + p.ky_min) * stride;
-            const v_int16x8 frx_v = cv::v_setall_s16(std::int16_t(p.frx));
-            const v_int16x8 fry_v = cv::v_setall_s16(std::int16_t(p.fry));
-            const v_int16x8 ky_step = cv::v_setall_s16(std::int16_t(p.ky_max));
-            for (int v = 0; v < steps.vectors; ++v) {
-                v_int16x8 result[2];
-                for (int h = 0; h < 2; ++h) {
-                    const std::int16_t *ox = steps.offset_x[v] + 8 * h;
-                    const v_int16x8 rel_x = frx_v + cv::v_load(ox);
-                    const v_int16x8 rel_y = fry_v + cv::v_load(steps.offset_y[v] + 8 * h);
-                    // The half reads a window that starts at its first pixel's left tap.
-                    const int k = (p.frx + ox[0]) >> 10;
-                    const v_int16x8 kx = rel_x >> 10;  // rel_x >= 0
-                    const v_int16x8 fx = (rel_x >> (10 - kFracBits)) & frac_mask;
-                    const v_int16x8 fy_scaled = ((rel_y >> (10 - kFracBits)) & frac_mask) << 9;
-                    const v_int16x8 left = cv::v_mul_wrap(kx - cv::v_setall_s16(std::int16_t(k)), chans) +
-                                           cv::v_load(steps.channel + 8 * h);
-                    const v_uint8x16 ctrl = cv::v_reinterpret_as_u8(left + ((left << 8) + next_tap));
-                    const std::size_t byte = std::size_t(p.ix0 + k) * channels;
-                    v_int16x8 value = interpolateRows128(row + byte, row + stride + byte, ctrl, one - fx, fx, fy_scaled);
-                    if (p.ky_max != p.ky_min) {
-                        const v_int16x8 lower =
-                            interpolateRows128(row + stride + byte, row + 2 * stride + byte, ctrl, one - fx, fx,
-                                               fy_scaled);
-                        value = cv::v_select((rel_y >> 10) == ky_step, lower, value);
-                    }
-                    result[h] = (value + round) >> kFracBits;  // value >= 0
+        const int chunks_in_row = dst_width / kChunk;
+        for (int first = 0; first < chunks_in_row; first += kPlanChunks) {
+            const int chunks = std::min(kPlanChunks, chunks_in_row - first);
+            planChunksPortable(src, channels, m, steps, first * kChunk, chunks, y, plan);
+            for (int c = 0; c < chunks; ++c) {
+                const int x = (first + c) * kChunk;
+                if (!plan.vector_ok[c]) {
+                    samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
+                    continue;
                 }
-                cv::v_store(out + x * channels + v * 16, cv::v_pack_u(result[0], result[1]));
+                const int ix0 = plan.ix0[c], frx = plan.frx[c];
+                const int ky_min = std::min(0, plan.ky_last[c]), ky_max = std::max(0, plan.ky_last[c]);
+                const std::uint8_t *row = src.data + std::size_t(plan.iy0[c] + ky_min) * stride;
+                const v_int16x8 frx_v = cv::v_setall_s16(std::int16_t(frx));
+                const v_int16x8 fry_v = cv::v_setall_s16(std::int16_t(plan.fry[c]));
+                const v_int16x8 ky_step = cv::v_setall_s16(std::int16_t(ky_max));
+                for (int v = 0; v < C; ++v) {
+                    v_int16x8 result[2];
+                    for (int h = 0; h < 2; ++h) {
+                        const std::int16_t *ox = steps.offset_x[v] + 8 * h;
+                        const v_int16x8 rel_x = frx_v + cv::v_load(ox);
+                        const v_int16x8 rel_y = fry_v + cv::v_load(steps.offset_y[v] + 8 * h);
+                        // The half reads a window that starts at its first pixel's left tap.
+                        const int k = (frx + ox[0]) >> 10;
+                        const v_int16x8 kx = rel_x >> 10;  // rel_x >= 0
+                        const v_int16x8 fx = (rel_x >> (10 - kFracBits)) & frac_mask;
+                        const v_int16x8 fy_scaled = ((rel_y >> (10 - kFracBits)) & frac_mask) << 9;
+                        v_int16x8 left = kx - cv::v_setall_s16(std::int16_t(k));
+                        if (C == 2)
+                            left = left + left;
+                        left = left + cv::v_load(steps.channel + 8 * h);
+                        const v_uint8x16 ctrl = cv::v_reinterpret_as_u8(left + ((left << 8) + next_tap));
+                        const std::size_t byte = std::size_t(ix0 + k) * channels;
+                        v_int16x8 value =
+                            interpolateRows128(row + byte, row + stride + byte, ctrl, one - fx, fx, fy_scaled);
+                        if (ky_max != ky_min) {
+                            const v_int16x8 lower = interpolateRows128(row + stride + byte, row + 2 * stride + byte,
+                                                                       ctrl, one - fx, fx, fy_scaled);
+                            value = cv::v_select((rel_y >> 10) == ky_step, lower, value);
+                        }
+                        result[h] = (value + round) >> kFracBits;  // value >= 0
+                    }
+                    cv::v_store(out + x * channels + v * 16, cv::v_pack_u(result[0], result[1]));
+                }
             }
         }
+        const int x = chunks_in_row * kChunk;
         samplePixels(src, channels, m, replicate, border, out, x, y, dst_width - x);
     }
 }
@@ -973,7 +1021,10 @@ bool runKernel(WarpKernel kernel, const PlaneSpan &src, std::uint8_t *dst, int d
 #endif
     case WarpKernel::Simd128:
 #ifdef UAVSTAB_HAVE_SIMD128
-        warpRows128(src, dst, dst_stride, dst_width, row_begin, row_end, channels, matrices, replicate, border);
+        if (channels == 1)
+            warpRows128<1>(src, dst, dst_stride, dst_width, row_begin, row_end, matrices, replicate, border);
+        else
+            warpRows128<2>(src, dst, dst_stride, dst_width, row_begin, row_end, matrices, replicate, border);
         return true;
 #else
         return false;
