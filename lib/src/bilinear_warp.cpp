@@ -1076,7 +1076,8 @@ bool warpPlaneBilinear4(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
 bool warpPlaneBilinearHandles(const PlaneSpan &src, int channels, const double m[6])
 {
     // Four-channel pixels fill a vector with only 4 pixels; measured no faster than
-    // OpenCV there, so only planar luma/chroma (1) and interleaved chroma (2) come here.
+    // OpenCV there, so only planar luma/chroma (1) and interleaved chroma (2) come here
+    // (4-channel planes keep OpenCV's output, now from warpPlaneBilinear4).
     // The window trick needs the source to advance forwards by at most 1.25 px per output
     // pixel and to cross at most one source row per chunk.
     return (channels == 1 || channels == 2) && m[0] > 0.0 && m[0] <= 1.25 &&

@@ -49,8 +49,10 @@ std::array<std::uint8_t, 4> borderBytes(const cv::Scalar &black)
     return {std::uint8_t(black[0]), std::uint8_t(black[1]), std::uint8_t(black[2]), std::uint8_t(black[3])};
 }
 
-// Rows [y0, y1) of plane p through one matrix, with OpenCV: the transforms the fast kernel
-// does not handle and the 3- and 4-channel formats.
+// Rows [y0, y1) of plane p through one matrix, as OpenCV's warpAffine draws them: the
+// transforms the fast kernel does not handle and the 3- and 4-channel formats. 4-channel
+// planes through warpPlaneBilinear4 (the same bytes in one pass) where this CPU has its
+// kernel, the rest through OpenCV.
 void warpGeneral(const FrameView &in, const FrameView &out, int p, int y0, int y1, const double plane_m[6],
                  BorderMode border_mode, const cv::Scalar &black)
 {
