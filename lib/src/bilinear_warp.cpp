@@ -7,7 +7,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
-#include <vector>
 
 #include <opencv2/core/hal/intrin.hpp>
 
@@ -805,21 +804,11 @@ __attribute__((target("avx2"))) void warpRowsCv4Avx2(const PlaneSpan &src, std::
     }
     const CvStripe s = cvStripe(plane_m, row_begin);
     const double *m = s.m;
-    // The per-column deltas, rounded half to even (MXCSR's default mode, as cvRound).
-    thread_local std::vector<int> deltas;
-    const int padded = (dst_width + 7) & ~7;
-    deltas.resize(std::size_t(2 * padded));
-    int *adelta = deltas.data(), *bdelta = adelta + padded;
-    {
-        const __m256d m0 = _mm256_set1_pd(m[0]), m3 = _mm256_set1_pd(m[3]), scale = _mm256_set1_pd(1024.0);
-        for (int x = 0; x < padded; x += 4) {
-            const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(0, 1, 2, 3)));
-            _mm_storeu_si128(reinterpret_cast<__m128i *>(adelta + x),
-                             _mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_mul_pd(m0, xs), scale)));
-            _mm_storeu_si128(reinterpret_cast<__m128i *>(bdelta + x),
-                             _mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_mul_pd(m3, xs), scale)));
-        }
-    }
+    // The per-column deltas of a block of columns, on the stack (no allocation): frames up
+    // to kColumns wide in one block, wider ones in blocks of columns, each down all rows.
+    constexpr int kColumns = 2048;
+    alignas(32) int adelta[kColumns], bdelta[kColumns];
+    const __m256d m0 = _mm256_set1_pd(m[0]), m3 = _mm256_set1_pd(m[3]), scale = _mm256_set1_pd(1024.0);
     const __m256i w2 = _mm256_set1_epi32(src.width - 2), h2 = _mm256_set1_epi32(src.height - 2);
     const __m256i m31 = _mm256_set1_epi32(31), k32 = _mm256_set1_epi32(32);
     const __m128i stride = _mm_set1_epi32(src.stride);
@@ -860,49 +849,62 @@ __attribute__((target("avx2"))) void warpRowsCv4Avx2(const PlaneSpan &src, std::
         const __m256i q = _mm256_mulhi_epi16(_mm256_add_epi16(d, d), fy_scaled);
         return _mm256_srai_epi16(_mm256_add_epi16(_mm256_add_epi16(t, q), sixteen), 5);
     };
-    for (int y = row_begin; y < row_end; ++y) {
-        const int yy = y - row_begin;
-        const int X0 = cvRoundInt((m[1] * yy + m[2]) * 1024) + 16, Y0 = cvRoundInt((m[4] * yy + m[5]) * 1024) + 16;
-        const __m256i X0v = _mm256_set1_epi32(X0), Y0v = _mm256_set1_epi32(Y0);
-        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
-        int x = 0;
-        for (; x + 8 <= dst_width; x += 8) {
-            const __m256i X = _mm256_srai_epi32(
-                _mm256_add_epi32(X0v, _mm256_loadu_si256(reinterpret_cast<const __m256i *>(adelta + x))), 5);
-            const __m256i Y = _mm256_srai_epi32(
-                _mm256_add_epi32(Y0v, _mm256_loadu_si256(reinterpret_cast<const __m256i *>(bdelta + x))), 5);
-            const __m256i sx = _mm256_srai_epi32(X, 5), sy = _mm256_srai_epi32(Y, 5);
-            // Inside: 0 <= sx <= width - 2 and 0 <= sy <= height - 2 (unsigned compares).
-            const __m256i inside = _mm256_and_si256(_mm256_cmpeq_epi32(_mm256_min_epu32(sx, w2), sx),
-                                                    _mm256_cmpeq_epi32(_mm256_min_epu32(sy, h2), sy));
-            if (_mm256_movemask_epi8(inside) != -1) {
-                alignas(32) int xv[8], yv[8];
-                _mm256_store_si256(reinterpret_cast<__m256i *>(xv), X);
-                _mm256_store_si256(reinterpret_cast<__m256i *>(yv), Y);
-                for (int j = 0; j < 8; ++j)
-                    samplePixelCv4(src, xv[j], yv[j], replicate, border, out + 4 * (x + j));
-                continue;
-            }
-            const __m256i fx = _mm256_and_si256(X, m31), fy = _mm256_and_si256(Y, m31);
-            // Horizontal weights (32 - fx, fx) as byte pairs and the vertical fy << 10, one
-            // pixel per 64-bit lane.
-            const __m256i wx1 = _mm256_or_si256(_mm256_sub_epi32(k32, fx), _mm256_slli_epi32(fx, 8));
-            const __m256i wx2 = _mm256_or_si256(wx1, _mm256_slli_epi32(wx1, 16));
-            const __m256i fy1 = _mm256_slli_epi32(fy, 10);
-            const __m256i fy2 = _mm256_or_si256(fy1, _mm256_slli_epi32(fy1, 16));
-            __m256i top, bottom;
-            taps(_mm256_castsi256_si128(sx), _mm256_castsi256_si128(sy), top, bottom);
-            const __m256i a = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_a),
-                                    _mm256_permutevar8x32_epi32(fy2, pixels_a));
-            taps(_mm256_extracti128_si256(sx, 1), _mm256_extracti128_si256(sy, 1), top, bottom);
-            const __m256i b = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_b),
-                                    _mm256_permutevar8x32_epi32(fy2, pixels_b));
-            // a: pixels 0 1 | 2 3, b: 4 5 | 6 7 (16-bit) -> bytes 0 1 4 5 | 2 3 6 7 -> 0..7.
-            _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + 4 * x),
-                                _mm256_permute4x64_epi64(_mm256_packus_epi16(a, b), 0xd8));
+    for (int xb = 0; xb < dst_width; xb += kColumns) {
+        const int xe = std::min(dst_width, xb + kColumns);
+        // m0 x 1024 and m3 x 1024 rounded half to even (MXCSR's default mode, as cvRound), as
+        // OpenCV's adelta and bdelta: the same double operations as the scalar code.
+        for (int x = xb; x < xe; x += 4) {
+            const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(0, 1, 2, 3)));
+            _mm_store_si128(reinterpret_cast<__m128i *>(adelta + (x - xb)),
+                            _mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_mul_pd(m0, xs), scale)));
+            _mm_store_si128(reinterpret_cast<__m128i *>(bdelta + (x - xb)),
+                            _mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_mul_pd(m3, xs), scale)));
         }
-        for (; x < dst_width; ++x)
-            samplePixelCv4(src, (X0 + adelta[x]) >> 5, (Y0 + bdelta[x]) >> 5, replicate, border, out + 4 * x);
+        for (int y = row_begin; y < row_end; ++y) {
+            const int yy = y - row_begin;
+            const int X0 = cvRoundInt((m[1] * yy + m[2]) * 1024) + 16, Y0 = cvRoundInt((m[4] * yy + m[5]) * 1024) + 16;
+            const __m256i X0v = _mm256_set1_epi32(X0), Y0v = _mm256_set1_epi32(Y0);
+            std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+            int x = xb;
+            for (; x + 8 <= xe; x += 8) {
+                const __m256i X = _mm256_srai_epi32(
+                    _mm256_add_epi32(X0v, _mm256_load_si256(reinterpret_cast<const __m256i *>(adelta + (x - xb)))), 5);
+                const __m256i Y = _mm256_srai_epi32(
+                    _mm256_add_epi32(Y0v, _mm256_load_si256(reinterpret_cast<const __m256i *>(bdelta + (x - xb)))), 5);
+                const __m256i sx = _mm256_srai_epi32(X, 5), sy = _mm256_srai_epi32(Y, 5);
+                // Inside: 0 <= sx <= width - 2 and 0 <= sy <= height - 2 (unsigned compares).
+                const __m256i inside = _mm256_and_si256(_mm256_cmpeq_epi32(_mm256_min_epu32(sx, w2), sx),
+                                                        _mm256_cmpeq_epi32(_mm256_min_epu32(sy, h2), sy));
+                if (_mm256_movemask_epi8(inside) != -1) {
+                    alignas(32) int xv[8], yv[8];
+                    _mm256_store_si256(reinterpret_cast<__m256i *>(xv), X);
+                    _mm256_store_si256(reinterpret_cast<__m256i *>(yv), Y);
+                    for (int j = 0; j < 8; ++j)
+                        samplePixelCv4(src, xv[j], yv[j], replicate, border, out + 4 * (x + j));
+                    continue;
+                }
+                const __m256i fx = _mm256_and_si256(X, m31), fy = _mm256_and_si256(Y, m31);
+                // Horizontal weights (32 - fx, fx) as byte pairs and the vertical fy << 10, one
+                // pixel per 64-bit lane.
+                const __m256i wx1 = _mm256_or_si256(_mm256_sub_epi32(k32, fx), _mm256_slli_epi32(fx, 8));
+                const __m256i wx2 = _mm256_or_si256(wx1, _mm256_slli_epi32(wx1, 16));
+                const __m256i fy1 = _mm256_slli_epi32(fy, 10);
+                const __m256i fy2 = _mm256_or_si256(fy1, _mm256_slli_epi32(fy1, 16));
+                __m256i top, bottom;
+                taps(_mm256_castsi256_si128(sx), _mm256_castsi256_si128(sy), top, bottom);
+                const __m256i a = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_a),
+                                        _mm256_permutevar8x32_epi32(fy2, pixels_a));
+                taps(_mm256_extracti128_si256(sx, 1), _mm256_extracti128_si256(sy, 1), top, bottom);
+                const __m256i b = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_b),
+                                        _mm256_permutevar8x32_epi32(fy2, pixels_b));
+                // a: pixels 0 1 | 2 3, b: 4 5 | 6 7 (16-bit) -> bytes 0 1 4 5 | 2 3 6 7 -> 0..7.
+                _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + 4 * x),
+                                    _mm256_permute4x64_epi64(_mm256_packus_epi16(a, b), 0xd8));
+            }
+            for (; x < xe; ++x)
+                samplePixelCv4(src, (X0 + adelta[x - xb]) >> 5, (Y0 + bdelta[x - xb]) >> 5, replicate, border,
+                               out + 4 * x);
+        }
     }
 }
 

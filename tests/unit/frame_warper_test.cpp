@@ -724,3 +724,32 @@ TEST(WarpKernels, WideRowsWriteTheSameBytesAsTheScalarReference)
         }
     }
 }
+
+TEST(WarpKernels, FourChannelRowsWiderThanAColumnBlockWriteOpenCvsBytes)
+{
+    // Rows of more than 2048 pixels (the AVX2 4-channel kernel rounds its column steps in
+    // blocks of 2048 columns): still cv::warpAffine's bytes.
+    std::mt19937 rng(20261204);
+    const auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+    for (int trial = 0; trial < 6; ++trial) {
+        const int w = 2040 + 1111 * trial, h = 9;
+        const int stride = w * 4 + 12;
+        std::vector<std::uint8_t> src(std::size_t(stride) * h);
+        for (auto &b : src)
+            b = std::uint8_t(rng());
+        const double turn = uniform(-0.003, 0.003), scale = uniform(0.9, 1.1);
+        const double m[6] = {scale, -scale * turn, uniform(-30, 30), scale * turn, scale, uniform(-2, 2)};
+        const std::uint8_t border[4] = {0, 0, 0, 255};
+        const PlaneSpan span{src.data(), stride, w, h};
+        for (bool replicate : {false, true}) {
+            std::vector<std::uint8_t> reference(src.size(), 0xa5), out(src.size(), 0xa5);
+            openCvStripe(span, reference.data(), stride, w, 2, h, m, replicate, border);
+            for (WarpKernel kernel : kWarpKernels) {
+                std::fill(out.begin(), out.end(), 0xa5);
+                if (warpPlaneBilinear4(span, out.data(), stride, w, 2, h, m, replicate, border, kernel)) {
+                    ASSERT_TRUE(out == reference) << warpKernelName(kernel) << " trial " << trial;
+                }
+            }
+        }
+    }
+}
