@@ -165,6 +165,27 @@ private:
     double steps_m0_, steps_m3_;  // the matrix entries steps_ was computed for
 };
 
+inline void samplePixels(const PlaneSpan &src, int channels, const double m[6], bool replicate,
+                         const std::uint8_t *border, std::uint8_t *out, int x, int y, int count)
+{
+    for (int j = 0; j < count; ++j)
+        samplePixel(src, channels, m[0] * (x + j) + m[1] * y + m[2], m[3] * (x + j) + m[4] * y + m[5], replicate,
+                    border, out + (x + j) * channels);
+}
+
+// The plan of up to kPlanChunks chunks of a row, for the vector kernels (planChunksAvx2,
+// planChunksPortable): per chunk what planChunk returns.
+constexpr int kPlanChunks = 64;
+
+struct RowPlan {
+    alignas(32) int ix0[kPlanChunks];
+    alignas(32) int iy0[kPlanChunks];
+    alignas(32) int frx[kPlanChunks];
+    alignas(32) int fry[kPlanChunks];
+    alignas(32) int ky_last[kPlanChunks];
+    alignas(32) int vector_ok[kPlanChunks];  // -1: a vector kernel takes the chunk
+};
+
 #ifdef UAVSTAB_HAVE_X86
 
 __attribute__((target("avx2"))) inline __m256i load2(const std::uint8_t *lo, const std::uint8_t *hi)
@@ -183,93 +204,147 @@ __attribute__((target("avx2"))) inline __m256i interpolateRows(const std::uint8_
     return _mm256_add_epi16(t, _mm256_mulhrs_epi16(_mm256_sub_epi16(b, t), fy_scaled));
 }
 
-template <class Matrices>
-__attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
-                                                  int dst_width, int row_begin, int row_end, int channels,
-                                                  Matrices &matrices, bool replicate, const std::uint8_t border[4])
+// Where a run of chunks of one row reads (up to kPlanChunks at a time), decided four chunks
+// at once in double vectors: the same operations, so the same roundings and decisions,
+// as planChunk (no fused multiply-adds: the target has none).
+__attribute__((target("avx2"))) inline void planChunksAvx2(const PlaneSpan &src, int channels, const double m[6],
+                                                           const LaneSteps &steps, int x_begin, int chunks, int y,
+                                                           RowPlan &plan)
 {
+    const __m256d m0 = _mm256_set1_pd(m[0]), m3 = _mm256_set1_pd(m[3]);
+    const __m256d row_x = _mm256_set1_pd(m[1] * y), row_y = _mm256_set1_pd(m[4] * y);
+    const __m256d m2 = _mm256_set1_pd(m[2]), m5 = _mm256_set1_pd(m[5]);
+    const __m256d last_x = _mm256_set1_pd(m[0] * (kChunk - 1)), last_y = _mm256_set1_pd(m[3] * (kChunk - 1));
+    const __m256d zero = _mm256_setzero_pd();
+    const __m256d width1 = _mm256_set1_pd(double(src.width - 1)), height1 = _mm256_set1_pd(double(src.height - 1));
+    const __m256d k1024 = _mm256_set1_pd(1024.0);
+    const __m128i last_window = _mm_set1_epi32(steps.offset_x[steps.vectors - 1][steps.half_pixels * channels]);
+    const __m128i last_offset_y = _mm_set1_epi32(steps.offset_y[steps.vectors - 1][15]);
+    const __m128i row_bytes = _mm_set1_epi32(src.width * channels - 16);
+    const __m128i height = _mm_set1_epi32(src.height), one = _mm_set1_epi32(1), zero_i = _mm_setzero_si128();
+    for (int c = 0; c < chunks; c += 4) {
+        const int x = x_begin + c * kChunk;
+        const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(0, 16, 32, 48)));
+        const __m256d sx0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m0, xs), row_x), m2);
+        const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), row_y), m5);
+        const __m256d sx1 = _mm256_add_pd(sx0, last_x), sy1 = _mm256_add_pd(sy0, last_y);
+        // Every tap inside (false for NaN, as planChunk's comparisons).
+        const __m256d inside = _mm256_and_pd(
+            _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sx0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sx1, zero, _CMP_GE_OQ)),
+                          _mm256_and_pd(_mm256_cmp_pd(sx0, width1, _CMP_LT_OQ), _mm256_cmp_pd(sx1, width1, _CMP_LT_OQ))),
+            _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sy0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sy1, zero, _CMP_GE_OQ)),
+                          _mm256_and_pd(_mm256_cmp_pd(sy0, height1, _CMP_LT_OQ), _mm256_cmp_pd(sy1, height1, _CMP_LT_OQ))));
+        // Inside, sx0, sy0 >= 0: truncation is the floor. Lanes outside hold anything.
+        const __m128i ix0 = _mm256_cvttpd_epi32(sx0), iy0 = _mm256_cvttpd_epi32(sy0);
+        const __m128i frx = _mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(sx0, _mm256_cvtepi32_pd(ix0)), k1024));
+        const __m128i fry = _mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(sy0, _mm256_cvtepi32_pd(iy0)), k1024));
+        const __m128i ky_last = _mm_srai_epi32(_mm_add_epi32(fry, last_offset_y), 10);
+        const __m128i ky_min = _mm_min_epi32(zero_i, ky_last), ky_max = _mm_max_epi32(zero_i, ky_last);
+        // planChunk's refusals: the last window past the row, two row steps, rows outside.
+        const __m128i window_end =
+            _mm_mullo_epi32(_mm_add_epi32(ix0, _mm_srai_epi32(_mm_add_epi32(frx, last_window), 10)),
+                            _mm_set1_epi32(channels));
+        const __m128i refused = _mm_or_si128(
+            _mm_or_si128(_mm_cmpgt_epi32(window_end, row_bytes), _mm_cmpgt_epi32(_mm_sub_epi32(ky_max, ky_min), one)),
+            _mm_or_si128(_mm_cmpgt_epi32(_mm_add_epi32(_mm_add_epi32(iy0, ky_max), one), _mm_sub_epi32(height, one)),
+                         _mm_cmpgt_epi32(zero_i, _mm_add_epi32(iy0, ky_min))));
+        // The double mask's lanes are 64-bit: take one 32-bit half of each.
+        const __m128i inside32 = _mm256_castsi256_si128(
+            _mm256_permutevar8x32_epi32(_mm256_castpd_si256(inside), _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0)));
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.ix0 + c), ix0);
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.iy0 + c), iy0);
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.frx + c), frx);
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.fry + c), fry);
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.ky_last + c), ky_last);
+        _mm_store_si128(reinterpret_cast<__m128i *>(plan.vector_ok + c), _mm_andnot_si128(refused, inside32));
+    }
+}
+
+template <int C, class Matrices>
+__attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
+                                                  int dst_width, int row_begin, int row_end, Matrices &matrices,
+                                                  bool replicate, const std::uint8_t border[4])
+{
+    constexpr int channels = C;
     // The lane layout (channel, half) is the same for every matrix.
     const __m256i channel = _mm256_load_si256(reinterpret_cast<const __m256i *>(matrices.steps().channel));
-    const __m256i is_high = _mm256_load_si256(reinterpret_cast<const __m256i *>(matrices.steps().is_high_half));
+    const __m256i high_mask = _mm256_sub_epi16(
+        _mm256_setzero_si256(), _mm256_load_si256(reinterpret_cast<const __m256i *>(matrices.steps().is_high_half)));
     const __m256i frac_mask = _mm256_set1_epi16(kOne - 1);
     const __m256i one = _mm256_set1_epi16(kOne);
     const __m256i round = _mm256_set1_epi16(kOne / 2);
-    const __m256i chans = _mm256_set1_epi16(std::int16_t(channels));
     const __m256i next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
-    const int row_bytes = src.width * channels;
+    const std::size_t stride = std::size_t(src.stride);
+    RowPlan plan;
 
     for (int y = row_begin; y < row_end; ++y) {
         const double *m = matrices.row(y);
         const LaneSteps &steps = matrices.steps();
-        const int H = steps.half_pixels;
-        const double last_x = m[0] * (kChunk - 1), last_y = m[3] * (kChunk - 1);
-        const int last_window = steps.offset_x[steps.vectors - 1][H * channels];
-        auto scalar = [&](std::uint8_t *out, int x, int count) {
-            for (int j = 0; j < count; ++j)
-                samplePixel(src, channels, m[0] * (x + j) + m[1] * y + m[2], m[3] * (x + j) + m[4] * y + m[5],
-                            replicate, border, out + (x + j) * channels);
-        };
+        constexpr int H = 8 / C;
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
-        int x = 0;
-        for (; x + kChunk <= dst_width; x += kChunk) {
-            const double sx0 = m[0] * x + m[1] * y + m[2];
-            const double sy0 = m[3] * x + m[4] * y + m[5];
-            const double sx1 = sx0 + last_x, sy1 = sy0 + last_y;
-            // Every tap inside the frame (linear, so the chunk's ends bound it)...
-            if (!(std::min(sx0, sx1) >= 0.0 && std::max(sx0, sx1) < src.width - 1 && std::min(sy0, sy1) >= 0.0 &&
-                  std::max(sy0, sy1) < src.height - 1)) {
-                scalar(out, x, kChunk);
-                continue;
-            }
-            const int ix0 = int(sx0), iy0 = int(std::floor(sy0));
-            const int frx = int((sx0 - ix0) * 1024.0), fry = int((sy0 - iy0) * 1024.0);
-            const int ky_last = (fry + steps.offset_y[steps.vectors - 1][15]) >> 10;
-            const int ky_min = std::min(0, ky_last), ky_max = std::max(0, ky_last);
-            // ...every window read inside its row, at most one row step in the chunk.
-            if ((ix0 + ((frx + last_window) >> 10)) * channels + 16 > row_bytes || ky_max - ky_min > 1 ||
-                iy0 + ky_max + 1 >= src.height || iy0 + ky_min < 0) {
-                scalar(out, x, kChunk);
-                continue;
-            }
-            const std::uint8_t *row = src.data + std::size_t(iy0 + ky_min) * src.stride;
-            const __m256i frx_v = _mm256_set1_epi16(std::int16_t(frx));
-            const __m256i fry_v = _mm256_set1_epi16(std::int16_t(fry));
-            const __m256i ky_step = _mm256_set1_epi16(std::int16_t(ky_max));
-            for (int v = 0; v < steps.vectors; ++v) {
-                const __m256i rel_x =
-                    _mm256_add_epi16(frx_v, _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_x[v])));
-                const __m256i rel_y =
-                    _mm256_add_epi16(fry_v, _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_y[v])));
-                // Each half reads a window that starts at its first pixel's left tap.
-                const int k0 = (frx + steps.offset_x[v][0]) >> 10;
-                const int k1 = (frx + steps.offset_x[v][H * channels]) >> 10;
-                const __m256i kx = _mm256_srli_epi16(rel_x, 10);
-                const __m256i fx = _mm256_and_si256(_mm256_srli_epi16(rel_x, 10 - kFracBits), frac_mask);
-                const __m256i fy = _mm256_and_si256(_mm256_srai_epi16(rel_y, 10 - kFracBits), frac_mask);
-                const __m256i window_k = _mm256_add_epi16(
-                    _mm256_set1_epi16(std::int16_t(k0)), _mm256_mullo_epi16(is_high, _mm256_set1_epi16(std::int16_t(k1 - k0))));
-                // Shuffle control: byte of the left tap in the lane's window, right tap one pixel on.
-                const __m256i left =
-                    _mm256_add_epi16(_mm256_mullo_epi16(_mm256_sub_epi16(kx, window_k), chans), channel);
-                const __m256i ctrl = _mm256_add_epi16(left, _mm256_add_epi16(_mm256_slli_epi16(left, 8), next_tap));
-                const __m256i wx = _mm256_or_si256(_mm256_sub_epi16(one, fx), _mm256_slli_epi16(fx, 8));
-                const __m256i fy_scaled = _mm256_slli_epi16(fy, 9);
-                const int byte0 = (ix0 + k0) * channels, byte1 = (ix0 + k1) * channels;
-
-                __m256i value = interpolateRows(row, row + src.stride, byte0, byte1, ctrl, wx, fy_scaled);
-                if (ky_max != ky_min) {
-                    const __m256i lower = interpolateRows(row + src.stride, row + 2 * std::size_t(src.stride), byte0,
-                                                          byte1, ctrl, wx, fy_scaled);
-                    const __m256i ky = _mm256_srai_epi16(rel_y, 10);
-                    value = _mm256_blendv_epi8(value, lower, _mm256_cmpeq_epi16(ky, ky_step));
+        const int chunks_in_row = dst_width / kChunk;
+        // The chunk's window offsets, for its two halves.
+        alignas(32) int window_lo[C], window_hi[C];
+        __m256i offset_x[C], offset_y[C];
+        for (int v = 0; v < C; ++v) {
+            window_lo[v] = steps.offset_x[v][0];
+            window_hi[v] = steps.offset_x[v][H * channels];
+            offset_x[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_x[v]));
+            offset_y[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_y[v]));
+        }
+        for (int first = 0; first < chunks_in_row; first += kPlanChunks) {
+            const int chunks = std::min(kPlanChunks, chunks_in_row - first);
+            planChunksAvx2(src, channels, m, steps, first * kChunk, chunks, y, plan);
+            for (int c = 0; c < chunks; ++c) {
+                const int x = (first + c) * kChunk;
+                if (!plan.vector_ok[c]) {
+                    samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
+                    continue;
                 }
-                const __m256i result = _mm256_srli_epi16(_mm256_add_epi16(value, round), kFracBits);
-                const __m256i packed = _mm256_permute4x64_epi64(_mm256_packus_epi16(result, result), 0x08);
-                _mm_storeu_si128(reinterpret_cast<__m128i *>(out + x * channels + v * 16),
-                                 _mm256_castsi256_si128(packed));
+                const int ix0 = plan.ix0[c], iy0 = plan.iy0[c], frx = plan.frx[c], fry = plan.fry[c];
+                const int ky_min = std::min(0, plan.ky_last[c]), ky_max = std::max(0, plan.ky_last[c]);
+                const std::uint8_t *row = src.data + std::size_t(iy0 + ky_min) * stride;
+                const __m256i frx_v = _mm256_set1_epi16(std::int16_t(frx));
+                const __m256i fry_v = _mm256_set1_epi16(std::int16_t(fry));
+                const __m256i ky_step = _mm256_set1_epi16(std::int16_t(ky_max));
+                for (int v = 0; v < C; ++v) {
+                    const __m256i rel_x = _mm256_add_epi16(frx_v, offset_x[v]);
+                    const __m256i rel_y = _mm256_add_epi16(fry_v, offset_y[v]);
+                    // Each half reads a window that starts at its first pixel's left tap.
+                    const int k0 = (frx + window_lo[v]) >> 10;
+                    const int k1 = (frx + window_hi[v]) >> 10;
+                    const __m256i kx = _mm256_srli_epi16(rel_x, 10);
+                    const __m256i fx = _mm256_and_si256(_mm256_srli_epi16(rel_x, 10 - kFracBits), frac_mask);
+                    const __m256i fy = _mm256_and_si256(_mm256_srai_epi16(rel_y, 10 - kFracBits), frac_mask);
+                    const __m256i window_k = _mm256_add_epi16(
+                        _mm256_set1_epi16(std::int16_t(k0)),
+                        _mm256_and_si256(high_mask, _mm256_set1_epi16(std::int16_t(k1 - k0))));
+                    // Shuffle control: byte of the left tap in the lane's window, right tap one pixel on.
+                    __m256i left = _mm256_sub_epi16(kx, window_k);
+                    if (C == 2)
+                        left = _mm256_add_epi16(left, left);
+                    left = _mm256_add_epi16(left, channel);
+                    const __m256i ctrl = _mm256_add_epi16(left, _mm256_add_epi16(_mm256_slli_epi16(left, 8), next_tap));
+                    const __m256i wx = _mm256_or_si256(_mm256_sub_epi16(one, fx), _mm256_slli_epi16(fx, 8));
+                    const __m256i fy_scaled = _mm256_slli_epi16(fy, 9);
+                    const int byte0 = (ix0 + k0) * channels, byte1 = (ix0 + k1) * channels;
+
+                    __m256i value = interpolateRows(row, row + stride, byte0, byte1, ctrl, wx, fy_scaled);
+                    if (ky_max != ky_min) {
+                        const __m256i lower =
+                            interpolateRows(row + stride, row + 2 * stride, byte0, byte1, ctrl, wx, fy_scaled);
+                        const __m256i ky = _mm256_srai_epi16(rel_y, 10);
+                        value = _mm256_blendv_epi8(value, lower, _mm256_cmpeq_epi16(ky, ky_step));
+                    }
+                    const __m256i result = _mm256_srli_epi16(_mm256_add_epi16(value, round), kFracBits);
+                    const __m256i packed = _mm256_permute4x64_epi64(_mm256_packus_epi16(result, result), 0x08);
+                    _mm_storeu_si128(reinterpret_cast<__m128i *>(out + x * channels + v * 16),
+                                     _mm256_castsi256_si128(packed));
+                }
             }
         }
-        scalar(out, x, dst_width - x);
+        const int x = chunks_in_row * kChunk;
+        samplePixels(src, channels, m, replicate, border, out, x, y, dst_width - x);
     }
 }
 
@@ -313,13 +388,42 @@ inline bool planChunk(const PlaneSpan &src, int channels, const double m[6], con
              p.iy0 + p.ky_max + 1 >= src.height || p.iy0 + p.ky_min < 0);
 }
 
-inline void samplePixels(const PlaneSpan &src, int channels, const double m[6], bool replicate,
-                         const std::uint8_t *border, std::uint8_t *out, int x, int y, int count)
+// planChunk for chunks [x_begin / 16, + chunks) of row y, without branches (so that the
+// compiler may vectorise it): the same expressions in the same order, so the same
+// positions and decisions. Used by the 128-bit kernel.
+inline void planChunksPortable(const PlaneSpan &src, int channels, const double m[6], const LaneSteps &steps,
+                               int x_begin, int chunks, int y, RowPlan &plan)
 {
-    for (int j = 0; j < count; ++j)
-        samplePixel(src, channels, m[0] * (x + j) + m[1] * y + m[2], m[3] * (x + j) + m[4] * y + m[5], replicate,
-                    border, out + (x + j) * channels);
+    const double last_x = m[0] * (kChunk - 1), last_y = m[3] * (kChunk - 1);
+    const double row_x = m[1] * y, row_y = m[4] * y;
+    const double width1 = src.width - 1, height1 = src.height - 1;
+    const int last_window = steps.offset_x[steps.vectors - 1][steps.half_pixels * channels];
+    const int last_offset_y = steps.offset_y[steps.vectors - 1][15];
+    const int row_bytes = src.width * channels;
+    for (int c = 0; c < chunks; ++c) {
+        const int x = x_begin + c * kChunk;
+        const double sx0 = m[0] * x + row_x + m[2];
+        const double sy0 = m[3] * x + row_y + m[5];
+        const double sx1 = sx0 + last_x, sy1 = sy0 + last_y;
+        const bool inside = (sx0 >= 0.0) & (sx1 >= 0.0) & (sx0 < width1) & (sx1 < width1) & (sy0 >= 0.0) &
+                            (sy1 >= 0.0) & (sy0 < height1) & (sy1 < height1);
+        // Inside, sx0, sy0 >= 0: truncation is the floor. Outside: any in-range value.
+        const double cx = inside ? sx0 : 0.0, cy = inside ? sy0 : 0.0;
+        const int ix0 = int(cx), iy0 = int(cy);
+        const int frx = int((cx - ix0) * 1024.0), fry = int((cy - iy0) * 1024.0);
+        const int ky_last = (fry + last_offset_y) >> 10;
+        const int ky_min = std::min(0, ky_last), ky_max = std::max(0, ky_last);
+        const bool refused = ((ix0 + ((frx + last_window) >> 10)) * channels + 16 > row_bytes) |
+                             (ky_max - ky_min > 1) | (iy0 + ky_max + 1 >= src.height) | (iy0 + ky_min < 0);
+        plan.ix0[c] = ix0;
+        plan.iy0[c] = iy0;
+        plan.frx[c] = frx;
+        plan.fry[c] = fry;
+        plan.ky_last[c] = ky_last;
+        plan.vector_ok[c] = inside & !refused ? -1 : 0;
+    }
 }
+
 
 // The reference: what every vector kernel computes, one byte at a time. Lane (v, l) is
 // pixel v * 16 / C + l / C, channel l % C: taps at the integer part of its position, weights
@@ -412,59 +516,69 @@ UAVSTAB_TARGET_SIMD128 inline v_int16x8 interpolateRows128(const std::uint8_t *t
     return t + mulRoundShift15(b - t, fy_scaled);
 }
 
-template <class Matrices>
+template <int C, class Matrices>
 UAVSTAB_TARGET_SIMD128 void warpRows128(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width,
-                                        int row_begin, int row_end, int channels, Matrices &matrices, bool replicate,
+                                        int row_begin, int row_end, Matrices &matrices, bool replicate,
                                         const std::uint8_t border[4])
 {
+    constexpr int channels = C;
     const std::size_t stride = std::size_t(src.stride);
     const v_int16x8 frac_mask = cv::v_setall_s16(kOne - 1);
     const v_int16x8 one = cv::v_setall_s16(kOne);
     const v_int16x8 round = cv::v_setall_s16(kOne / 2);
-    const v_int16x8 chans = cv::v_setall_s16(std::int16_t(channels));
     const v_int16x8 next_tap = cv::v_setall_s16(std::int16_t(channels << 8));
+    RowPlan plan;
     for (int y = row_begin; y < row_end; ++y) {
         const double *m = matrices.row(y);
         const LaneSteps &steps = matrices.steps();
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
-        int x = 0;
-        for (; x + kChunk <= dst_width; x += kChunk) {
-            ChunkPlan p;
-            if (!planChunk(src, channels, m, steps, x, y, p)) {
-                samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
-                continue;
-            }
-            const std::uint8_t *row = src.data + std::size_t(p.iy0 + p.ky_min) * stride;
-            const v_int16x8 frx_v = cv::v_setall_s16(std::int16_t(p.frx));
-            const v_int16x8 fry_v = cv::v_setall_s16(std::int16_t(p.fry));
-            const v_int16x8 ky_step = cv::v_setall_s16(std::int16_t(p.ky_max));
-            for (int v = 0; v < steps.vectors; ++v) {
-                v_int16x8 result[2];
-                for (int h = 0; h < 2; ++h) {
-                    const std::int16_t *ox = steps.offset_x[v] + 8 * h;
-                    const v_int16x8 rel_x = frx_v + cv::v_load(ox);
-                    const v_int16x8 rel_y = fry_v + cv::v_load(steps.offset_y[v] + 8 * h);
-                    // The half reads a window that starts at its first pixel's left tap.
-                    const int k = (p.frx + ox[0]) >> 10;
-                    const v_int16x8 kx = rel_x >> 10;  // rel_x >= 0
-                    const v_int16x8 fx = (rel_x >> (10 - kFracBits)) & frac_mask;
-                    const v_int16x8 fy_scaled = ((rel_y >> (10 - kFracBits)) & frac_mask) << 9;
-                    const v_int16x8 left = cv::v_mul_wrap(kx - cv::v_setall_s16(std::int16_t(k)), chans) +
-                                           cv::v_load(steps.channel + 8 * h);
-                    const v_uint8x16 ctrl = cv::v_reinterpret_as_u8(left + ((left << 8) + next_tap));
-                    const std::size_t byte = std::size_t(p.ix0 + k) * channels;
-                    v_int16x8 value = interpolateRows128(row + byte, row + stride + byte, ctrl, one - fx, fx, fy_scaled);
-                    if (p.ky_max != p.ky_min) {
-                        const v_int16x8 lower =
-                            interpolateRows128(row + stride + byte, row + 2 * stride + byte, ctrl, one - fx, fx,
-                                               fy_scaled);
-                        value = cv::v_select((rel_y >> 10) == ky_step, lower, value);
-                    }
-                    result[h] = (value + round) >> kFracBits;  // value >= 0
+        const int chunks_in_row = dst_width / kChunk;
+        for (int first = 0; first < chunks_in_row; first += kPlanChunks) {
+            const int chunks = std::min(kPlanChunks, chunks_in_row - first);
+            planChunksPortable(src, channels, m, steps, first * kChunk, chunks, y, plan);
+            for (int c = 0; c < chunks; ++c) {
+                const int x = (first + c) * kChunk;
+                if (!plan.vector_ok[c]) {
+                    samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
+                    continue;
                 }
-                cv::v_store(out + x * channels + v * 16, cv::v_pack_u(result[0], result[1]));
+                const int ix0 = plan.ix0[c], frx = plan.frx[c];
+                const int ky_min = std::min(0, plan.ky_last[c]), ky_max = std::max(0, plan.ky_last[c]);
+                const std::uint8_t *row = src.data + std::size_t(plan.iy0[c] + ky_min) * stride;
+                const v_int16x8 frx_v = cv::v_setall_s16(std::int16_t(frx));
+                const v_int16x8 fry_v = cv::v_setall_s16(std::int16_t(plan.fry[c]));
+                const v_int16x8 ky_step = cv::v_setall_s16(std::int16_t(ky_max));
+                for (int v = 0; v < C; ++v) {
+                    v_int16x8 result[2];
+                    for (int h = 0; h < 2; ++h) {
+                        const std::int16_t *ox = steps.offset_x[v] + 8 * h;
+                        const v_int16x8 rel_x = frx_v + cv::v_load(ox);
+                        const v_int16x8 rel_y = fry_v + cv::v_load(steps.offset_y[v] + 8 * h);
+                        // The half reads a window that starts at its first pixel's left tap.
+                        const int k = (frx + ox[0]) >> 10;
+                        const v_int16x8 kx = rel_x >> 10;  // rel_x >= 0
+                        const v_int16x8 fx = (rel_x >> (10 - kFracBits)) & frac_mask;
+                        const v_int16x8 fy_scaled = ((rel_y >> (10 - kFracBits)) & frac_mask) << 9;
+                        v_int16x8 left = kx - cv::v_setall_s16(std::int16_t(k));
+                        if (C == 2)
+                            left = left + left;
+                        left = left + cv::v_load(steps.channel + 8 * h);
+                        const v_uint8x16 ctrl = cv::v_reinterpret_as_u8(left + ((left << 8) + next_tap));
+                        const std::size_t byte = std::size_t(ix0 + k) * channels;
+                        v_int16x8 value =
+                            interpolateRows128(row + byte, row + stride + byte, ctrl, one - fx, fx, fy_scaled);
+                        if (ky_max != ky_min) {
+                            const v_int16x8 lower = interpolateRows128(row + stride + byte, row + 2 * stride + byte,
+                                                                       ctrl, one - fx, fx, fy_scaled);
+                            value = cv::v_select((rel_y >> 10) == ky_step, lower, value);
+                        }
+                        result[h] = (value + round) >> kFracBits;  // value >= 0
+                    }
+                    cv::v_store(out + x * channels + v * 16, cv::v_pack_u(result[0], result[1]));
+                }
             }
         }
+        const int x = chunks_in_row * kChunk;
         samplePixels(src, channels, m, replicate, border, out, x, y, dst_width - x);
     }
 }
@@ -581,6 +695,221 @@ void warpRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst
     }
 }
 
+
+// ---- 4-channel pixels (BGRx, RGBA...): the bytes OpenCV's warpAffine writes ----------------
+//
+// The 4-channel formats go through cv::warpAffine (INTER_LINEAR, WARP_INVERSE_MAP), whose
+// output they keep: this kernel writes exactly those bytes, in one pass and without
+// OpenCV's per-block coordinate and weight tables. OpenCV 4's fixed-point path: for output
+// pixel (x, y), X = (round((m1 y + m2) 1024) + 16 + round(m0 x 1024)) >> 5 (round half to
+// even, as cvRound), likewise Y; taps at (X >> 5, Y >> 5) and one on; weights from the
+// 1/32 fractions fx = X & 31, fy = Y & 31, (32 - fx)(32 - fy) 32 and so on (exact in its
+// 2^15 table), so value = (sum tap * (32-fx|fx)(32-fy|fy) + 512) >> 10. Taps outside the
+// frame read the border value or, with replicate, the nearest edge pixel (remapBilinear).
+// The matrix is the one warpGeneral hands OpenCV: shifted to the stripe's first row.
+
+// Plane matrix shifted to the stripe [row_begin, ...), as warpGeneral does before calling
+// OpenCV (whose rows then count from 0).
+struct CvStripe {
+    double m[6];
+};
+
+inline CvStripe cvStripe(const double plane_m[6], int row_begin)
+{
+    CvStripe s;
+    std::copy(plane_m, plane_m + 6, s.m);
+    s.m[2] += s.m[1] * row_begin;
+    s.m[5] += s.m[4] * row_begin;
+    return s;
+}
+
+inline int cvRoundInt(double v)
+{
+    return int(std::lrint(v));  // the default rounding mode: half to even, as cvRound
+}
+
+// One output pixel at fixed-point position (X, Y) (1/32 px), any position.
+inline void samplePixelCv4(const PlaneSpan &src, int X, int Y, bool replicate, const std::uint8_t *border,
+                           std::uint8_t *out)
+{
+    const int sx = std::clamp(X >> 5, -32768, 32767), sy = std::clamp(Y >> 5, -32768, 32767);  // saturate_cast<short>
+    const int fx = X & 31, fy = Y & 31;
+    const int w[4] = {(32 - fx) * (32 - fy), fx * (32 - fy), (32 - fx) * fy, fx * fy};
+    const std::uint8_t *tap[4];
+    for (int k = 0; k < 4; ++k) {
+        int tx = sx + (k & 1), ty = sy + (k >> 1);
+        if (tx >= 0 && ty >= 0 && tx < src.width && ty < src.height) {
+            tap[k] = src.data + std::size_t(ty) * src.stride + std::size_t(tx) * 4;
+        } else if (replicate) {
+            tx = std::clamp(tx, 0, src.width - 1);
+            ty = std::clamp(ty, 0, src.height - 1);
+            tap[k] = src.data + std::size_t(ty) * src.stride + std::size_t(tx) * 4;
+        } else {
+            tap[k] = border;
+        }
+    }
+    for (int c = 0; c < 4; ++c) {
+        const int s = tap[0][c] * w[0] + tap[1][c] * w[1] + tap[2][c] * w[2] + tap[3][c] * w[3];
+        out[c] = std::uint8_t(std::min(255, (s + 512) >> 10));
+    }
+}
+
+// Whether the 4-channel kernel takes this stripe: finite, and every output pixel's source
+// within +-30000 px (affine: the corners bound it), so that no fixed-point value overflows
+// or saturates.
+bool cv4Handles(const double m[6], int dst_width, int row_begin, int row_end)
+{
+    for (int k = 0; k < 6; ++k)
+        if (!std::isfinite(m[k]))
+            return false;
+    for (int cy : {row_begin, row_end})
+        for (int cx : {0, dst_width}) {
+            const double sx = m[0] * cx + m[1] * cy + m[2], sy = m[3] * cx + m[4] * cy + m[5];
+            if (!(std::abs(sx) < 30000.0 && std::abs(sy) < 30000.0))
+                return false;
+        }
+    return true;
+}
+
+void warpRowsCv4Scalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                       int row_end, const double plane_m[6], bool replicate, const std::uint8_t border[4])
+{
+    const CvStripe s = cvStripe(plane_m, row_begin);
+    const double *m = s.m;
+    for (int y = row_begin; y < row_end; ++y) {
+        const int yy = y - row_begin;
+        const int X0 = cvRoundInt((m[1] * yy + m[2]) * 1024) + 16, Y0 = cvRoundInt((m[4] * yy + m[5]) * 1024) + 16;
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        for (int x = 0; x < dst_width; ++x)
+            samplePixelCv4(src, (X0 + cvRoundInt(m[0] * x * 1024)) >> 5, (Y0 + cvRoundInt(m[3] * x * 1024)) >> 5,
+                           replicate, border, out + 4 * x);
+    }
+}
+
+#ifdef UAVSTAB_HAVE_X86
+
+// Eight output pixels at a time. Positions: m0 x 1024 and m3 x 1024 rounded once per call
+// into a table (as OpenCV's adelta, bdelta; the same double operations, so the same
+// roundings as the scalar code). Pixels whose four taps all lie inside the frame: the taps
+// of each four read from one 32-byte window of each source row (a permute) when the four
+// share a source row and fit in it, else with a gather. Any other pixel: per pixel.
+__attribute__((target("avx2"))) void warpRowsCv4Avx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
+                                                     int dst_width, int row_begin, int row_end,
+                                                     const double plane_m[6], bool replicate,
+                                                     const std::uint8_t border[4])
+{
+    if (src.width < 2 || src.height < 2) {
+        warpRowsCv4Scalar(src, dst, dst_stride, dst_width, row_begin, row_end, plane_m, replicate, border);
+        return;
+    }
+    const CvStripe s = cvStripe(plane_m, row_begin);
+    const double *m = s.m;
+    // The per-column deltas of a block of columns, on the stack (no allocation): frames up
+    // to kColumns wide in one block, wider ones in blocks of columns, each down all rows.
+    constexpr int kColumns = 2048;
+    alignas(32) int adelta[kColumns], bdelta[kColumns];
+    const __m256d m0 = _mm256_set1_pd(m[0]), m3 = _mm256_set1_pd(m[3]), scale = _mm256_set1_pd(1024.0);
+    const __m256i w2 = _mm256_set1_epi32(src.width - 2), h2 = _mm256_set1_epi32(src.height - 2);
+    const __m256i m31 = _mm256_set1_epi32(31), k32 = _mm256_set1_epi32(32);
+    const __m128i stride = _mm_set1_epi32(src.stride);
+    const __m256i pair_bytes = _mm256_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15, 0, 4, 1, 5, 2,
+                                                6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
+    const __m256i one64 = _mm256_set1_epi64x(1);
+    const __m256i pixels_a = _mm256_setr_epi32(0, 0, 1, 1, 2, 2, 3, 3), pixels_b = _mm256_setr_epi32(4, 4, 5, 5, 6, 6, 7, 7);
+    const long long *base = reinterpret_cast<const long long *>(src.data);
+    // Left tap and the one on (8 bytes) of four pixels, one per 64-bit lane, in the rows at
+    // sy and sy + 1 (sx, sy: the four pixels', inside the frame).
+    const auto taps = [&](__m128i sx, __m128i sy, __m256i &top, __m256i &bottom) __attribute__((target("avx2"))) {
+        const int sx0 = _mm_cvtsi128_si32(sx), sy0 = _mm_cvtsi128_si32(sy);
+        const int sx3 = _mm_extract_epi32(sx, 3), sy3 = _mm_extract_epi32(sy, 3);
+        // Along a row the source moves monotonically: equal ends share a row, and
+        // sx0 <= sx3 makes sx0 the least.
+        if (sy0 == sy3 && sx3 >= sx0 && sx3 - sx0 <= 6 && sx0 + 8 <= src.width) {
+            const std::uint8_t *row = src.data + std::size_t(sy0) * src.stride + std::size_t(sx0) * 4;
+            const __m256i d = _mm256_cvtepu32_epi64(_mm_sub_epi32(sx, _mm_set1_epi32(sx0)));
+            const __m256i idx = _mm256_or_si256(d, _mm256_slli_epi64(_mm256_add_epi64(d, one64), 32));
+            top = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(row)), idx);
+            bottom = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(row + src.stride)),
+                                                 idx);
+        } else {
+            const __m128i offset = _mm_add_epi32(_mm_mullo_epi32(sy, stride), _mm_slli_epi32(sx, 2));
+            top = _mm256_i32gather_epi64(base, offset, 1);
+            bottom = _mm256_i32gather_epi64(base, _mm_add_epi32(offset, stride), 1);
+        }
+    };
+    // Four pixels' bytes (16-bit lanes) from their taps and weights: t and b the two rows'
+    // horizontal blends (x32, exact), then ((32 - fy) t + fy b + 512) >> 10 =
+    // (t + floor(fy (b - t) / 32) + 16) >> 5 (the same integer), the floor a mulhi of
+    // 2 (b - t) by fy << 10.
+    const __m256i sixteen = _mm256_set1_epi16(16);
+    const auto blend = [&](__m256i top, __m256i bottom, __m256i wx, __m256i fy_scaled) __attribute__((target("avx2"))) {
+        const __m256i t = _mm256_maddubs_epi16(_mm256_shuffle_epi8(top, pair_bytes), wx);
+        const __m256i b = _mm256_maddubs_epi16(_mm256_shuffle_epi8(bottom, pair_bytes), wx);
+        const __m256i d = _mm256_sub_epi16(b, t);
+        const __m256i q = _mm256_mulhi_epi16(_mm256_add_epi16(d, d), fy_scaled);
+        return _mm256_srai_epi16(_mm256_add_epi16(_mm256_add_epi16(t, q), sixteen), 5);
+    };
+    for (int xb = 0; xb < dst_width; xb += kColumns) {
+        const int xe = std::min(dst_width, xb + kColumns);
+        // m0 x 1024 and m3 x 1024 rounded half to even (MXCSR's default mode, as cvRound), as
+        // OpenCV's adelta and bdelta: the same double operations as the scalar code.
+        for (int x = xb; x < xe; x += 4) {
+            const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(0, 1, 2, 3)));
+            _mm_store_si128(reinterpret_cast<__m128i *>(adelta + (x - xb)),
+                            _mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_mul_pd(m0, xs), scale)));
+            _mm_store_si128(reinterpret_cast<__m128i *>(bdelta + (x - xb)),
+                            _mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_mul_pd(m3, xs), scale)));
+        }
+        for (int y = row_begin; y < row_end; ++y) {
+            const int yy = y - row_begin;
+            const int X0 = cvRoundInt((m[1] * yy + m[2]) * 1024) + 16, Y0 = cvRoundInt((m[4] * yy + m[5]) * 1024) + 16;
+            const __m256i X0v = _mm256_set1_epi32(X0), Y0v = _mm256_set1_epi32(Y0);
+            std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+            int x = xb;
+            for (; x + 8 <= xe; x += 8) {
+                const __m256i X = _mm256_srai_epi32(
+                    _mm256_add_epi32(X0v, _mm256_load_si256(reinterpret_cast<const __m256i *>(adelta + (x - xb)))), 5);
+                const __m256i Y = _mm256_srai_epi32(
+                    _mm256_add_epi32(Y0v, _mm256_load_si256(reinterpret_cast<const __m256i *>(bdelta + (x - xb)))), 5);
+                const __m256i sx = _mm256_srai_epi32(X, 5), sy = _mm256_srai_epi32(Y, 5);
+                // Inside: 0 <= sx <= width - 2 and 0 <= sy <= height - 2 (unsigned compares).
+                const __m256i inside = _mm256_and_si256(_mm256_cmpeq_epi32(_mm256_min_epu32(sx, w2), sx),
+                                                        _mm256_cmpeq_epi32(_mm256_min_epu32(sy, h2), sy));
+                if (_mm256_movemask_epi8(inside) != -1) {
+                    alignas(32) int xv[8], yv[8];
+                    _mm256_store_si256(reinterpret_cast<__m256i *>(xv), X);
+                    _mm256_store_si256(reinterpret_cast<__m256i *>(yv), Y);
+                    for (int j = 0; j < 8; ++j)
+                        samplePixelCv4(src, xv[j], yv[j], replicate, border, out + 4 * (x + j));
+                    continue;
+                }
+                const __m256i fx = _mm256_and_si256(X, m31), fy = _mm256_and_si256(Y, m31);
+                // Horizontal weights (32 - fx, fx) as byte pairs and the vertical fy << 10, one
+                // pixel per 64-bit lane.
+                const __m256i wx1 = _mm256_or_si256(_mm256_sub_epi32(k32, fx), _mm256_slli_epi32(fx, 8));
+                const __m256i wx2 = _mm256_or_si256(wx1, _mm256_slli_epi32(wx1, 16));
+                const __m256i fy1 = _mm256_slli_epi32(fy, 10);
+                const __m256i fy2 = _mm256_or_si256(fy1, _mm256_slli_epi32(fy1, 16));
+                __m256i top, bottom;
+                taps(_mm256_castsi256_si128(sx), _mm256_castsi256_si128(sy), top, bottom);
+                const __m256i a = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_a),
+                                        _mm256_permutevar8x32_epi32(fy2, pixels_a));
+                taps(_mm256_extracti128_si256(sx, 1), _mm256_extracti128_si256(sy, 1), top, bottom);
+                const __m256i b = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_b),
+                                        _mm256_permutevar8x32_epi32(fy2, pixels_b));
+                // a: pixels 0 1 | 2 3, b: 4 5 | 6 7 (16-bit) -> bytes 0 1 4 5 | 2 3 6 7 -> 0..7.
+                _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + 4 * x),
+                                    _mm256_permute4x64_epi64(_mm256_packus_epi16(a, b), 0xd8));
+            }
+            for (; x < xe; ++x)
+                samplePixelCv4(src, (X0 + adelta[x - xb]) >> 5, (Y0 + bdelta[x - xb]) >> 5, replicate, border,
+                               out + 4 * x);
+        }
+    }
+}
+
+#endif // UAVSTAB_HAVE_X86
+
 } // namespace
 
 void warpPlaneBilinear16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
@@ -684,14 +1013,20 @@ bool runKernel(WarpKernel kernel, const PlaneSpan &src, std::uint8_t *dst, int d
     switch (kernel) {
     case WarpKernel::Avx2:
 #ifdef UAVSTAB_HAVE_X86
-        warpRowsAvx2(src, dst, dst_stride, dst_width, row_begin, row_end, channels, matrices, replicate, border);
+        if (channels == 1)
+            warpRowsAvx2<1>(src, dst, dst_stride, dst_width, row_begin, row_end, matrices, replicate, border);
+        else
+            warpRowsAvx2<2>(src, dst, dst_stride, dst_width, row_begin, row_end, matrices, replicate, border);
         return true;
 #else
         return false;
 #endif
     case WarpKernel::Simd128:
 #ifdef UAVSTAB_HAVE_SIMD128
-        warpRows128(src, dst, dst_stride, dst_width, row_begin, row_end, channels, matrices, replicate, border);
+        if (channels == 1)
+            warpRows128<1>(src, dst, dst_stride, dst_width, row_begin, row_end, matrices, replicate, border);
+        else
+            warpRows128<2>(src, dst, dst_stride, dst_width, row_begin, row_end, matrices, replicate, border);
         return true;
 #else
         return false;
@@ -705,10 +1040,46 @@ bool runKernel(WarpKernel kernel, const PlaneSpan &src, std::uint8_t *dst, int d
 
 } // namespace
 
+bool warpPlaneBilinear4(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                        int row_end, const double m[6], bool replicate, const std::uint8_t border[4], WarpKernel kernel)
+{
+    if (!warpKernelAvailable(kernel) || !cv4Handles(m, dst_width, row_begin, row_end) || src.width < 1 ||
+        src.height < 1)
+        return false;
+    switch (kernel) {
+    case WarpKernel::Scalar:
+        warpRowsCv4Scalar(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
+        return true;
+    case WarpKernel::Avx2:
+#ifdef UAVSTAB_HAVE_X86
+        // Its gathers take 32-bit byte offsets into the plane.
+        if (std::size_t(src.stride) * std::size_t(src.height) >= std::size_t(1) << 31)
+            return false;
+        warpRowsCv4Avx2(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border);
+        return true;
+#else
+        return false;
+#endif
+    case WarpKernel::Simd128:
+        return false;
+    }
+    return false;
+}
+
+bool warpPlaneBilinear4(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                        int row_end, const double m[6], bool replicate, const std::uint8_t border[4])
+{
+    // Only the AVX2 kernel: elsewhere OpenCV's own warp is faster than the scalar one.
+    return warpKernel() == WarpKernel::Avx2 &&
+           warpPlaneBilinear4(src, dst, dst_stride, dst_width, row_begin, row_end, m, replicate, border,
+                              WarpKernel::Avx2);
+}
+
 bool warpPlaneBilinearHandles(const PlaneSpan &src, int channels, const double m[6])
 {
     // Four-channel pixels fill a vector with only 4 pixels; measured no faster than
-    // OpenCV there, so only planar luma/chroma (1) and interleaved chroma (2) come here.
+    // OpenCV there, so only planar luma/chroma (1) and interleaved chroma (2) come here
+    // (4-channel planes keep OpenCV's output, now from warpPlaneBilinear4).
     // The window trick needs the source to advance forwards by at most 1.25 px per output
     // pixel and to cross at most one source row per chunk.
     return (channels == 1 || channels == 2) && m[0] > 0.0 && m[0] <= 1.25 &&

@@ -65,6 +65,20 @@ bool warpPlaneBilinearRows(const PlaneSpan &src, std::uint8_t *dst, int dst_stri
                            int row_end, int channels, const std::array<double, 6> *row_m, bool replicate,
                            const std::uint8_t border[4], WarpKernel kernel);
 
+// 4 interleaved bytes per pixel (BGRx, RGBA...): writes the bytes cv::warpAffine(INTER_LINEAR |
+// WARP_INVERSE_MAP, BORDER_CONSTANT with `border` or BORDER_REPLICATE) writes into dst rows
+// [row_begin, row_end) when given the plane matrix m shifted to row_begin and those rows
+// (as FrameWarper hands it a stripe): OpenCV 4's fixed-point bilinear, 1/32 px, in one pass.
+// False, having written nothing, when the kernel is not available here or the transform
+// reads too far out (|source| >= 30000 px). Without a kernel: the AVX2 one, or false when
+// this CPU has none (OpenCV's own warp is then the faster); Scalar spells the arithmetic
+// out (tests).
+bool warpPlaneBilinear4(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                        int row_end, const double m[6], bool replicate, const std::uint8_t border[4]);
+bool warpPlaneBilinear4(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                        int row_end, const double m[6], bool replicate, const std::uint8_t border[4],
+                        WarpKernel kernel);
+
 // The same for one plane of 16-bit samples (one channel), at full depth: taps weighted in
 // double precision and the result rounded to the nearest integer, so that an integer
 // position reproduces its sample exactly and nothing is clipped or rescaled (a bilinear

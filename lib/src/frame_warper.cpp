@@ -44,11 +44,26 @@ bool overlaps(const FrameView &a, const FrameView &b)
     return false;
 }
 
-// Rows [y0, y1) of plane p through one matrix, with OpenCV: the transforms the fast kernel
-// does not handle and the 3- and 4-channel formats.
+std::array<std::uint8_t, 4> borderBytes(const cv::Scalar &black)
+{
+    return {std::uint8_t(black[0]), std::uint8_t(black[1]), std::uint8_t(black[2]), std::uint8_t(black[3])};
+}
+
+// Rows [y0, y1) of plane p through one matrix, as OpenCV's warpAffine draws them: the
+// transforms the fast kernel does not handle and the 3- and 4-channel formats. 4-channel
+// planes through warpPlaneBilinear4 (the same bytes in one pass) where this CPU has its
+// kernel, the rest through OpenCV.
 void warpGeneral(const FrameView &in, const FrameView &out, int p, int y0, int y1, const double plane_m[6],
                  BorderMode border_mode, const cv::Scalar &black)
 {
+    // 4-byte pixels: the same bytes OpenCV writes, from the one-pass kernel where there is one.
+    if (planeLayout(in.format, p).channels == 4) {
+        const std::array<std::uint8_t, 4> border_value = borderBytes(black);
+        const PlaneSpan span{in.planes[p].data, in.planes[p].stride, in.planeWidth(p), in.planeHeight(p)};
+        if (warpPlaneBilinear4(span, out.planes[p].data, out.planes[p].stride, out.planeWidth(p), y0, y1, plane_m,
+                               border_mode == BorderMode::Replicate, border_value.data()))
+            return;
+    }
     // The stripe's first row is row y0 of the plane: shift the mapping.
     double m[6];
     std::copy(plane_m, plane_m + 6, m);
@@ -76,11 +91,6 @@ void planeRows(const FrameView &in, int plane, int row_begin, int row_end, int &
     const PlaneLayout layout = planeLayout(in.format, plane);
     y0 = row_begin / layout.subsample_y;
     y1 = row_end == in.height ? in.planeHeight(plane) : row_end / layout.subsample_y;
-}
-
-std::array<std::uint8_t, 4> borderBytes(const cv::Scalar &black)
-{
-    return {std::uint8_t(black[0]), std::uint8_t(black[1]), std::uint8_t(black[2]), std::uint8_t(black[3])};
 }
 
 } // namespace

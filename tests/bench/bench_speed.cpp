@@ -119,9 +119,11 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
               "planners, the l1 planner (the default) and the optimal planner at delays 20 and 0; frame geometry "
               "only, so the same at every "
               "format), and `FrameWarper::warp` of a whole frame (OpenCV limited to 1 thread, and with OpenCV's "
-              "default pool). ms/frame: mean (p95); for the planners mean (p99).");
+              "default pool), beside the copy bound: a plain copy of the frame's planes input to output (row by "
+              "row, one thread), timed alternately with the 1-thread warp in the same loop, and the ratio of "
+              "the two means. ms/frame: mean (p95); for the planners mean (p99).");
     Table t({"resolution", "format", "estimate", "plan box r10", "plan gauss r20", "plan l1 d20", "plan l1 d0",
-             "plan optimal d20", "plan optimal d0", "warp (1 cv thread)", "warp (cv default)", "sum (1 thread)",
+             "plan optimal d20", "plan optimal d0", "warp (1 cv thread)", "warp (cv default)", "copy bound", "warp / copy", "sum (1 thread)",
              "other processes"});
     const int default_threads = cv::getNumThreads();
     for (const ResolutionPlan &p : plans) {
@@ -129,7 +131,7 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
         for (PixelFormat fmt : {PixelFormat::I420, PixelFormat::BGRx}) {
             const std::vector<FrameBuffer> frames = framesFromBgr(bgr, fmt);
             StabilizerConfig config;
-            std::vector<double> est, box, gauss, l1_20, l1_0, optimal20, optimal0, warp1, warpN;
+            std::vector<double> est, box, gauss, l1_20, l1_0, optimal20, optimal0, warp1, warpN, copy1;
             const double others = measureQuietly("stages " + p.res.name(), [&] {
                 cv::setNumThreads(1);
                 // Estimation.
@@ -183,22 +185,41 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
                 optimal0 = planCost(PlannerKind::Optimal, 20, 0);
                 // Warp.
                 FrameBuffer out(fmt, p.res.width, p.res.height);
-                auto warpCost = [&]() {
+                // The copy bound: every plane's rows copied input -> output, the bytes the warp reads
+                // and writes at the least. Timed alternately with the warp (copy_ms), so that both
+                // see the same machine.
+                auto copyFrame = [](const FrameView &in, const FrameView &dst) {
+                    for (int pl = 0; pl < in.planeCount(); ++pl) {
+                        const int rows = in.planeHeight(pl), bytes = in.planeRowBytes(pl);
+                        for (int y = 0; y < rows; ++y)
+                            std::memcpy(dst.planes[pl].data + std::size_t(y) * dst.planes[pl].stride,
+                                        in.planes[pl].data + std::size_t(y) * in.planes[pl].stride, std::size_t(bytes));
+                    }
+                };
+                auto warpCost = [&](std::vector<double> *copy_ms) {
                     const FrameWarper warper(BorderMode::Black);
                     std::vector<double> ms;
                     const int reps = o.quick ? 15 : 40;
                     for (int k = 0; k < reps + 2; ++k) {
                         const Similarity m{0.7 * std::sin(k), 1.3 * std::cos(k), 0.004 * std::sin(0.5 * k), 0.92};
+                        const FrameView in = frames[std::size_t(k) % frames.size()].view();
+                        if (copy_ms != nullptr) {
+                            const auto c0 = Clock::now();
+                            copyFrame(in, out.view());
+                            if (k >= 2)
+                                copy_ms->push_back(msBetween(c0, Clock::now()));
+                        }
                         const auto t0 = Clock::now();
-                        warper.warp(frames[std::size_t(k) % frames.size()].view(), out.view(), m);
+                        warper.warp(in, out.view(), m);
                         if (k >= 2)
                             ms.push_back(msBetween(t0, Clock::now()));
                     }
                     return ms;
                 };
-                warp1 = warpCost();
+                copy1.clear();
+                warp1 = warpCost(&copy1);
                 cv::setNumThreads(default_threads);
-                warpN = warpCost();
+                warpN = warpCost(nullptr);
             });
             auto cell = [](const std::vector<double> &v, const char *f, double pct = 95) {
                 return format(f, mean(v), percentile(v, pct));
@@ -206,7 +227,8 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
             t.row({p.res.name(), formatName(fmt), cell(est, "%.2f (%.2f)"), cell(box, "%.4f (%.4f)", 99),
                    cell(gauss, "%.4f (%.4f)", 99), cell(l1_20, "%.4f (%.4f)", 99), cell(l1_0, "%.4f (%.4f)", 99),
                    cell(optimal20, "%.4f (%.4f)", 99), cell(optimal0, "%.4f (%.4f)", 99), cell(warp1, "%.2f (%.2f)"),
-                   cell(warpN, "%.2f (%.2f)"), format("%.2f", mean(est) + mean(l1_20) + mean(warp1)),
+                   cell(warpN, "%.2f (%.2f)"), cell(copy1, "%.2f (%.2f)"), format("%.2f", mean(warp1) / mean(copy1)),
+                   format("%.2f", mean(est) + mean(l1_20) + mean(warp1)),
                    loadCell(others)});
             const std::string key = format("stage.%s.%s", p.res.name().c_str(), formatName(fmt));
             putResult(o, key + ".estimate_ms", mean(est));
@@ -220,10 +242,12 @@ void sectionStages(const Options &o, const std::vector<ResolutionPlan> &plans,
             putResult(o, key + ".plan_optimal0_ms", mean(optimal0));
             putResult(o, key + ".warp1_ms", mean(warp1));
             putResult(o, key + ".warpN_ms", mean(warpN));
+            putResult(o, key + ".copy1_ms", mean(copy1));
+            putResult(o, key + ".warp1_over_copy", mean(warp1) / mean(copy1));
             std::printf("  stages %s %s: estimate %.2f ms, plan (l1, delay 20) %.3f ms (p99 %.3f), warp %.2f ms "
-                        "(1 thread) %.2f ms (default)\n",
+                        "(1 thread) %.2f ms (default), copy bound %.2f ms, warp/copy %.2f\n",
                         p.res.name().c_str(), formatName(fmt), mean(est), mean(l1_20), percentile(l1_20, 99),
-                        mean(warp1), mean(warpN));
+                        mean(warp1), mean(warpN), mean(copy1), mean(warp1) / mean(copy1));
             std::fflush(stdout);
         }
     }

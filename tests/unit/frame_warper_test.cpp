@@ -551,3 +551,205 @@ TEST(FrameWarperPerRow, StripesTogetherEqualTheWholeFrame)
         }
     }
 }
+
+// 4-byte pixels (BGRx, RGBA...): the kernels write the bytes OpenCV's warpAffine writes.
+namespace {
+
+// What FrameWarper's general path does for rows [row_begin, row_end) of a plane: OpenCV on
+// the stripe, its matrix shifted to the stripe's first row.
+void openCvStripe(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                  int row_end, const double plane_m[6], bool replicate, const std::uint8_t border[4])
+{
+    const cv::Mat in(src.height, src.width, CV_8UC4, const_cast<std::uint8_t *>(src.data), std::size_t(src.stride));
+    cv::Mat out = cv::Mat(row_end, dst_width, CV_8UC4, dst, std::size_t(dst_stride)).rowRange(row_begin, row_end);
+    double m[6];
+    std::copy(plane_m, plane_m + 6, m);
+    m[2] += m[1] * row_begin;
+    m[5] += m[4] * row_begin;
+    cv::warpAffine(in, out, cv::Mat(2, 3, CV_64F, m), out.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                   replicate ? cv::BORDER_REPLICATE : cv::BORDER_CONSTANT,
+                   cv::Scalar(border[0], border[1], border[2], border[3]));
+}
+
+} // namespace
+
+TEST(WarpKernels, FourChannelKernelsWriteOpenCvsBytes)
+{
+    // Random warps from near-identity to large rotations, zooms, flips and shears, odd
+    // widths, padded strides, stripes, both borders, shifts far off every edge: every
+    // 4-channel kernel available here writes exactly cv::warpAffine's bytes, padding untouched.
+    std::mt19937 rng(20261202);
+    const auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+    const auto integer = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
+    constexpr int kTrials = 1200;
+    int used[3] = {};
+    for (int trial = 0; trial < kTrials; ++trial) {
+        const int w = integer(1, 150), h = integer(1, 60);
+        const int src_stride = w * 4 + (trial % 3 == 0 ? 0 : integer(1, 40));
+        std::vector<std::uint8_t> src(std::size_t(src_stride) * (h - 1) + std::size_t(w) * 4);
+        const int content = trial % 3;
+        for (std::size_t i = 0; i < src.size(); ++i)
+            src[i] = content == 0 ? std::uint8_t(rng())
+                     : content == 1 ? std::uint8_t(((int(i % std::size_t(src_stride)) / 4 + int(i / std::size_t(src_stride))) / 2) % 2 ? 255 : 0)
+                                    : std::uint8_t((i * 7) & 255);
+        double m[6];
+        const int kind = trial % 6;
+        const double turn = kind == 0 ? 0.0 : kind == 5 ? uniform(-0.8, 0.8) : uniform(-0.06, 0.06);
+        const double scale = kind == 1 ? 1.0 : kind == 5 ? uniform(0.3, 3.0) : uniform(0.8, 1.25);
+        m[0] = scale * (1.0 - 0.5 * turn * turn) * (kind == 4 ? -1.0 : 1.0);
+        m[1] = -scale * turn + (kind == 3 ? uniform(-0.3, 0.3) : 0.0);
+        m[3] = scale * turn;
+        m[4] = scale * (1.0 - 0.5 * turn * turn);
+        const bool whole = trial % 13 == 0;
+        m[2] = whole ? integer(-w / 2, w / 2) : uniform(-0.5 * w, 0.5 * w) + (kind == 4 ? w : 0);
+        m[5] = whole ? integer(-h / 2, h / 2) : uniform(-0.5 * h, 0.5 * h);
+        if (trial % 17 == 0)  // halfway between 1/32 px steps: the rounding's ties
+            m[2] = std::round(m[2] * 32.0) / 32.0 + 1.0 / 64.0;
+        const int dst_width = integer(1, 170), dst_height = integer(1, 60);
+        const int dst_stride = dst_width * 4 + integer(0, 24);
+        const int row_begin = integer(0, dst_height - 1), row_end = integer(row_begin + 1, dst_height);
+        const bool replicate = rng() % 2;
+        const std::uint8_t border[4] = {std::uint8_t(rng()), std::uint8_t(rng()), std::uint8_t(rng()),
+                                        std::uint8_t(rng())};
+        const PlaneSpan span{src.data(), src_stride, w, h};
+        std::vector<std::uint8_t> reference(std::size_t(dst_stride) * dst_height, 0xa5);
+        openCvStripe(span, reference.data(), dst_stride, dst_width, row_begin, row_end, m, replicate, border);
+        for (int k = 0; k < 3; ++k) {
+            const WarpKernel kernel = kWarpKernels[k];
+            std::vector<std::uint8_t> out(reference.size(), 0xa5);
+            if (!warpPlaneBilinear4(span, out.data(), dst_stride, dst_width, row_begin, row_end, m, replicate, border,
+                                    kernel))
+                continue;
+            ++used[k];
+            const auto diff = std::mismatch(out.begin(), out.end(), reference.begin());
+            if (diff.first != out.end()) {
+                const std::size_t at = std::size_t(diff.first - out.begin());
+                FAIL() << warpKernelName(kernel) << " differs from OpenCV in trial " << trial << " at row "
+                       << at / dst_stride << " byte " << at % dst_stride << ": " << int(*diff.first) << " vs "
+                       << int(*diff.second) << " (src " << w << "x" << h << " stride " << src_stride
+                       << ", dst width " << dst_width << ", rows " << row_begin << "-" << row_end << ", m " << m[0]
+                       << " " << m[1] << " " << m[2] << " " << m[3] << " " << m[4] << " " << m[5] << ")";
+            }
+        }
+    }
+    for (int k = 0; k < 3; ++k)
+        std::printf("%s: %d 4-channel warps identical to OpenCV\n", warpKernelName(kWarpKernels[k]), used[k]);
+    EXPECT_EQ(kTrials, used[0]);  // the scalar kernel takes every one of these
+    if (warpKernelAvailable(WarpKernel::Avx2)) {
+        EXPECT_EQ(kTrials, used[2]);
+    }
+}
+
+TEST(WarpKernels, FourChannelFramesWarpAsOpenCvWarpsThem)
+{
+    // BGRx and RGBA through FrameWarper, whole frame and stripes: the bytes OpenCV writes
+    // with the plane's matrix.
+    for (PixelFormat format : {PixelFormat::BGRx, PixelFormat::RGBA}) {
+        const FrameBuffer in = noiseFrame(format, 197, 103, 3, 7);
+        for (int t = 0; t < 3; ++t) {
+            const Similarity s = t == 0   ? Similarity{2.3, -1.6, 0.03, 1.0 / 1.07}
+                                 : t == 1 ? Similarity{-40.0, 25.0, -0.4, 1.3}
+                                          : Similarity{0.25, 0.5, 0.0, 1.0};
+            for (bool replicate : {false, true}) {
+                const FrameWarper warper(replicate ? BorderMode::Replicate : BorderMode::Black);
+                FrameBuffer out(format, 197, 103), striped(format, 197, 103), expected(format, 197, 103),
+                    whole(format, 197, 103);
+                warper.warp(in.view(), out.view(), s);
+                for (int r = 0; r < 103; r += 29)
+                    warper.warpRows(in.view(), striped.view(), s, r, std::min(103, r + 29));
+                double m[6];
+                FrameWarper::planeMatrix(in.view(), 0, s, m);
+                const std::uint8_t black[4] = {0, 0, 0, 255};  // FrameWarper's black for both
+                const FrameView &v = in.view();
+                openCvStripe({v.planes[0].data, v.planes[0].stride, 197, 103}, whole.view().planes[0].data,
+                             whole.view().planes[0].stride, 197, 0, 103, m, replicate, black);
+                for (int r = 0; r < 103; r += 29)
+                    openCvStripe({v.planes[0].data, v.planes[0].stride, 197, 103}, expected.view().planes[0].data,
+                                 expected.view().planes[0].stride, 197, r, std::min(103, r + 29), m, replicate, black);
+                for (int y = 0; y < 103; ++y) {
+                    ASSERT_EQ(0, std::memcmp(striped.row(0, y), expected.row(0, y), 197 * 4)) << "row " << y;
+                    ASSERT_EQ(0, std::memcmp(out.row(0, y), whole.row(0, y), 197 * 4)) << "row " << y;
+                }
+            }
+        }
+    }
+}
+
+TEST(WarpKernels, WideRowsWriteTheSameBytesAsTheScalarReference)
+{
+    // Rows of more than 1024 pixels (the AVX2 kernel plans a row's chunks 64 at a time),
+    // through every kernel, with one matrix and with a matrix per row.
+    std::mt19937 rng(20261203);
+    const auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+    const auto integer = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
+    for (int trial = 0; trial < 60; ++trial) {
+        const int channels = 1 + trial % 2;
+        const int w = integer(1030, 2400), h = integer(8, 24);
+        const int src_stride = w * channels + integer(0, 33);
+        std::vector<std::uint8_t> src(std::size_t(src_stride) * (h - 1) + std::size_t(w) * channels);
+        for (auto &b : src)
+            b = std::uint8_t(rng());
+        const double turn = uniform(-0.004, 0.004), scale = uniform(0.85, 1.2);
+        std::vector<std::array<double, 6>> rows(static_cast<std::size_t>(h));
+        for (int y = 0; y < h; ++y) {
+            double *m = rows[std::size_t(y)].data();
+            m[0] = scale * (1.0 - 0.5 * turn * turn);
+            m[1] = -scale * turn;
+            m[3] = scale * turn;
+            m[4] = m[0];
+            m[2] = uniform(-0.1 * w, 0.1 * w) * (trial % 3 == 0 ? 0.0 : 1.0) + (trial % 4 == 0 ? 0.5 * y : 0.0);
+            m[5] = uniform(-2.0, 2.0);
+            if (trial % 2 == 0 && y > 0)
+                rows[std::size_t(y)] = rows[0];
+        }
+        const int dst_width = w + integer(-20, 20), dst_stride = dst_width * channels + integer(0, 16);
+        const bool replicate = rng() % 2;
+        const std::uint8_t border[4] = {16, 128, 0, 0};
+        const PlaneSpan span{src.data(), src_stride, w, h};
+        std::vector<std::uint8_t> reference(std::size_t(dst_stride) * h, 0xa5), single_ref(reference);
+        ASSERT_TRUE(warpPlaneBilinearRows(span, reference.data(), dst_stride, dst_width, 0, h, channels, rows.data(),
+                                          replicate, border, WarpKernel::Scalar));
+        ASSERT_TRUE(warpPlaneBilinear(span, single_ref.data(), dst_stride, dst_width, 0, h, channels, rows[0].data(),
+                                      replicate, border, WarpKernel::Scalar));
+        for (WarpKernel kernel : kWarpKernels) {
+            if (!warpKernelAvailable(kernel))
+                continue;
+            std::vector<std::uint8_t> out(reference.size(), 0xa5), single(reference.size(), 0xa5);
+            ASSERT_TRUE(warpPlaneBilinearRows(span, out.data(), dst_stride, dst_width, 0, h, channels, rows.data(),
+                                              replicate, border, kernel));
+            ASSERT_TRUE(warpPlaneBilinear(span, single.data(), dst_stride, dst_width, 0, h, channels, rows[0].data(),
+                                          replicate, border, kernel));
+            ASSERT_TRUE(out == reference) << warpKernelName(kernel) << " per row, trial " << trial;
+            ASSERT_TRUE(single == single_ref) << warpKernelName(kernel) << " one matrix, trial " << trial;
+        }
+    }
+}
+
+TEST(WarpKernels, FourChannelRowsWiderThanAColumnBlockWriteOpenCvsBytes)
+{
+    // Rows of more than 2048 pixels (the AVX2 4-channel kernel rounds its column steps in
+    // blocks of 2048 columns): still cv::warpAffine's bytes.
+    std::mt19937 rng(20261204);
+    const auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+    for (int trial = 0; trial < 6; ++trial) {
+        const int w = 2040 + 1111 * trial, h = 9;
+        const int stride = w * 4 + 12;
+        std::vector<std::uint8_t> src(std::size_t(stride) * h);
+        for (auto &b : src)
+            b = std::uint8_t(rng());
+        const double turn = uniform(-0.003, 0.003), scale = uniform(0.9, 1.1);
+        const double m[6] = {scale, -scale * turn, uniform(-30, 30), scale * turn, scale, uniform(-2, 2)};
+        const std::uint8_t border[4] = {0, 0, 0, 255};
+        const PlaneSpan span{src.data(), stride, w, h};
+        for (bool replicate : {false, true}) {
+            std::vector<std::uint8_t> reference(src.size(), 0xa5), out(src.size(), 0xa5);
+            openCvStripe(span, reference.data(), stride, w, 2, h, m, replicate, border);
+            for (WarpKernel kernel : kWarpKernels) {
+                std::fill(out.begin(), out.end(), 0xa5);
+                if (warpPlaneBilinear4(span, out.data(), stride, w, 2, h, m, replicate, border, kernel)) {
+                    ASSERT_TRUE(out == reference) << warpKernelName(kernel) << " trial " << trial;
+                }
+            }
+        }
+    }
+}

@@ -15,7 +15,8 @@ public:
     explicit FrameWarper(BorderMode border = BorderMode::Black) : border_(border) {}
 
     // out(q) = in(output_to_input(q)) for every pixel q, bilinear. `out` has `in`'s
-    // geometry, is written in place (no allocation) and must not overlap `in`.
+    // geometry, is written in place (no allocation) and must not overlap `in`. 4-byte
+    // formats (BGRx, RGBA...) get the bytes OpenCV's warpAffine writes.
     void warp(const FrameView &in, const FrameView &out, const Similarity &output_to_input) const;
 
     // Rows [row_begin, row_end) of every plane's luma-scaled extent, so that several
