@@ -35,8 +35,17 @@ std::size_t libraryMaxFinalized()
     return std::size_t(std::max(1, StabilizerConfig{}.resolvedThreads()) - 1);
 }
 // The memory budget: the frames the delay holds and 8 more, library and element alike
-// (the element's count includes appsrc's queue).
+// (the element's verdict leaves appsrc's queue out).
 constexpr int kBudgetExtraFrames = 8;
+
+// The verdict on the heap's frames; the element's are counted without appsrc's queue (the
+// harness's frames, not the element's).
+std::string withinBudget(double frames, int budget, bool element)
+{
+    const char *what = element ? " without appsrc's queue" : "";
+    return frames <= budget ? format("yes (%.1f%s <= %d)", frames, what, budget)
+                            : format("no (%.1f%s > %d)", frames, what, budget);
+}
 
 double mib(long kib)
 {
@@ -280,7 +289,7 @@ void driver(const Options &o, bool element)
         "(held input frames, output frames in flight, pyramids, and what the allocator keeps), also in frames of "
         "the resolution. The peak of malloc'ed bytes in use (mallinfo2, sampled after every push and every drained "
         "frame) separates what is really held from what glibc keeps mapped; budget = delay + %d = %d frames, "
-        "library and element alike (the element's count includes appsrc's queue of up to 3 frames). Library: "
+        "library and element alike (the element's heap includes appsrc's queue of up to 3 frames, which the verdict leaves out: they are the harness's). Library: "
         "`Stabilizer::pushHeld`, then each frame the delay lets go of is finalized (takes an output frame) once at "
         "most %zu finalized frames (the warp threads less one) are not yet popped, as the element's chain does; the end of the stream is "
         "drained one frame at a time the same way. Element: `appsrc ! uavstabilize ! fakesink`, appsrc "
@@ -312,7 +321,7 @@ void driver(const Options &o, bool element)
             t.row({r.name(), what, std::to_string(frames), format("%.2f", fb), format("%.0f", mib(v.at("base"))),
                    format("%.0f", mib(v.at("peak"))), format("%.0f", held), format("%.1f", in_frames),
                    format("%.0f", heap), format("%.1f", heap_frames),
-                   heap_frames <= budget ? format("yes (<= %d)", budget) : format("no (> %d)", budget)});
+                   withinBudget(heap_frames - (mode == "lib" ? 0.0 : double(queued)), budget, mode != "lib")});
             b.row({r.name(), what, format("%.1f", heap_frames), std::to_string(held_inputs), std::to_string(inflight),
                    std::to_string(outputs), mode == "lib" ? "-" : std::to_string(queued),
                    format("%.1f", rest_frames), format("%.1f", rest_frames * fb)});
