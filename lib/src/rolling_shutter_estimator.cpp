@@ -94,7 +94,6 @@ void RollingShutterEstimator::setSettings(const Settings &settings)
 void RollingShutterEstimator::reset()
 {
     offsets_.clear();
-    mean_difference_.clear();
     mean_velocity_ = Similarity::identity();
     level_ = 0.0;
     frames_ = 0;
@@ -227,26 +226,6 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
         }
     }
 
-    // Parallax (the ground nearer at the bottom of the frame than at the top) leaves the
-    // similarity a residual that is the same frame after frame while the camera flies on,
-    // and a leaky sum of it would bend the frame by several px. A shutter's differences
-    // sum to no more than one frame's bend: what persists is taken out (the differences'
-    // running mean over some `persistence` frames).
-    const double persist = settings_.persistence > 1.0 ? 1.0 / settings_.persistence : 0.0;
-    if (mean_difference_.size() != unknowns)
-        mean_difference_.assign(unknowns, 0.0);
-    if (enough && persist > 0.0) {
-        double before2 = 0.0, after2 = 0.0;
-        for (std::size_t k = 0; k < unknowns; ++k) {
-            double &zk = z[Eigen::Index(k)];
-            mean_difference_[k] += persist * (zk - mean_difference_[k]);
-            before2 += zk * zk;
-            zk -= mean_difference_[k];
-            after2 += zk * zk;
-        }
-        if (before2 > 0.0)
-            difference_rms *= std::sqrt(after2 / before2);
-    }
     // This frame's offsets: the previous frame's, faded, less the differences.
     std::vector<double> offsets(unknowns);
     for (std::size_t k = 0; k < unknowns; ++k)

@@ -58,12 +58,6 @@ public:
         // Each frame keeps this share of the previous frame's offsets before adding its
         // own differences: an estimation error fades over some ten frames.
         double leak = 0.85;
-        // Differences that persist over about this many frames are parallax, not a shutter,
-        // and are taken out (0: none are). A vibration close to a multiple of the frame rate
-        // changes its differences slowly too: with 10, a 60 Hz vibration seen at 30 fps keeps
-        // 0.48-0.69x of its wobble (0.35-0.49x with none taken out), while the indoor AR.Drone
-        // clip is bent by 1.9 px on average instead of 5.6 px.
-        double persistence = 10.0;
         // Penalty on differences between neighbouring bands and on the size of each band's
         // motion, per tracked point (px^2 per px^2).
         double band_smoothness = 0.02;
@@ -94,7 +88,6 @@ private:
     int width_ = 0, height_ = 0;
     // The previous frame's offsets, 3 per band (x, y, turn in px at half the width).
     std::vector<double> offsets_;
-    std::vector<double> mean_difference_;  // the differences' running mean (parallax)
     Similarity mean_velocity_;  // known readout: the motion's leaky average
     double level_ = 0.0;
     int frames_ = 0;
