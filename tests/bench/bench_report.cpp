@@ -188,6 +188,25 @@ int main(int argc, char **argv)
             targets.push_back({"1920x1080 element >= 30x ffmpeg deshake (issue 22)", num(e / d, "%.1fx"),
                                verdict(std::isfinite(e / d), e / d >= 30)});
         }
+        // Issue 22, per stage at 1080p on one thread (bench_speed's per-stage table).
+        if (n.has("stage.1920x1080.I420.copy1_ms")) {
+            std::string measured;
+            bool met = true;
+            for (const char *f : {"I420", "BGRx"}) {
+                const std::string k = std::string("stage.1920x1080.") + f;
+                const double r = n.get(k + ".warp1_over_copy");
+                measured += format("%s%s: warp %.2f ms, copy %.2f ms = %.1fx", measured.empty() ? "" : "; ", f,
+                                   n.get(k + ".warp1_ms"), n.get(k + ".copy1_ms"), r);
+                met = met && r <= 2.0;
+            }
+            targets.push_back({"warp on one thread <= 2x the copy bound (the frame's planes copied, same loop) at "
+                               "1920x1080, I420 and BGRx (issue 22)",
+                               measured, verdict(true, met)});
+            const double est = n.get("stage.1920x1080.I420.estimate_ms");
+            targets.push_back({"estimation <= 1.0 ms at 1920x1080 I420, one thread (issue 22)",
+                               format("%.2f ms (BGRx %.2f ms)", est, n.get("stage.1920x1080.BGRx.estimate_ms")),
+                               verdict(std::isfinite(est), est <= 1.0)});
+        }
         // Quality targets, for each of our configurations (bench_quality.cpp: oursTable()) at
         // the delays it ran at; vid.stab = vid.stab default (two-pass, optzoom=1), same clips.
         {
