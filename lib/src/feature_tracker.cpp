@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "lucas_kanade.hpp"
 #include "luma_extractor.hpp"
 
 namespace uavstab {
@@ -192,9 +193,10 @@ Point2 FeatureTracker::Impl::toFrame(cv::Point2f p) const
 void FeatureTracker::Impl::trackBoth(const std::vector<cv::Point2f> &from, std::vector<cv::Point2f> &to,
                                      std::vector<std::uint8_t> &passed, int levels)
 {
-    const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
-    cv::calcOpticalFlowPyrLK(previous_pyramid, current_pyramid, from, to, status_forward, errors_forward,
-                             lk.window, levels, criteria);
+    LucasKanadeParams params;
+    params.window = lk.window;
+    params.max_level = levels;
+    trackLucasKanade(previous_pyramid, current_pyramid, from, to, status_forward, &errors_forward, params);
     // Only tracks that passed the forward checks go back: the rest are dropped anyway.
     const cv::Rect2f inside(0.f, 0.f, float(analysis.width - 1), float(analysis.height - 1));
     kept.clear();
@@ -208,10 +210,10 @@ void FeatureTracker::Impl::trackBoth(const std::vector<cv::Point2f> &from, std::
     passed.assign(from.size(), 0);
     if (kept.empty())
         return;
-    // No patch error for the way back: only the forward one is checked, and OpenCV skips a
-    // window resampling per point when it is not asked for.
-    cv::calcOpticalFlowPyrLK(current_pyramid, previous_pyramid, kept_forward, kept_backward, status_backward,
-                             cv::noArray(), lk.window, levels, criteria);
+    // No patch error for the way back: only the forward one is checked, and the tracker
+    // skips a window resampling per point when it is not asked for.
+    trackLucasKanade(current_pyramid, previous_pyramid, kept_forward, kept_backward, status_backward, nullptr,
+                     params);
     const float limit2 = float(config.fb_threshold * config.fb_threshold);
     for (std::size_t k = 0; k < kept.size(); ++k) {
         const std::size_t i = kept[k];
