@@ -6,6 +6,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "lucas_kanade.hpp"
+#include "tracking_pyramid.hpp"
 #include "luma_extractor.hpp"
 
 namespace uavstab {
@@ -304,8 +305,7 @@ PointMatches FeatureTracker::track(const FrameView &frame)
     // so the caller's frame need not outlive this call.
     // With the derivatives: LK would otherwise compute them for whole levels itself, twice
     // per frame (forward into it, backward out of it).
-    cv::buildOpticalFlowPyramid(luma, d.current_pyramid, d.lk.window, d.lk.levels, true,
-                                cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
+    buildTrackingPyramid(luma, d.current_pyramid, d.lk.window, d.lk.levels);
 
     PointMatches matches;
     matches.first = !d.has_previous;
