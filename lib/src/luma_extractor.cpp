@@ -7,6 +7,11 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define UAVSTAB_HAVE_X86 1
+#endif
+
 namespace uavstab {
 
 namespace {
@@ -17,6 +22,64 @@ inline std::uint8_t average9(unsigned sum)
 {
     return std::uint8_t(((sum + 4u) * 7282u) >> 16);
 }
+
+#ifdef UAVSTAB_HAVE_X86
+
+bool cpuHasAvx2()
+{
+    static const bool has = __builtin_cpu_supports("avx2");
+    return has;
+}
+
+// average9 of sums s[i] + s[i + 1] + s[i + 2], i = 0..15.
+__attribute__((target("avx2"))) inline __m256i averageOfThrees(const std::uint16_t *s)
+{
+    const __m256i h = _mm256_add_epi16(_mm256_add_epi16(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(s)),
+                                                        _mm256_loadu_si256(reinterpret_cast<const __m256i *>(s + 1))),
+                                       _mm256_loadu_si256(reinterpret_cast<const __m256i *>(s + 2)));
+    return _mm256_mulhi_epu16(_mm256_add_epi16(h, _mm256_set1_epi16(4)), _mm256_set1_epi16(7282));
+}
+
+// One output row of a 1-channel image, 16 pixels at a time (returns how many it wrote):
+// the three source rows summed into `sums`, then each run of three sums added for every
+// position (h[i] = sums[i] + sums[i + 1] + sums[i + 2]), averaged, and every third kept:
+// h[0], h[3] ... h[45] of 48 come from the four 128-bit halves of two packed vectors.
+__attribute__((target("avx2"))) int boxRowAvx2(const std::uint8_t *r0, const std::uint8_t *r1, const std::uint8_t *r2,
+                                               std::uint16_t *sums, int n, std::uint8_t *out, int out_n)
+{
+    int i = 0;
+    for (; i + 16 <= n; i += 16) {
+        const __m256i a = _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i *>(r0 + i)));
+        const __m256i b = _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i *>(r1 + i)));
+        const __m256i c = _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i *>(r2 + i)));
+        _mm256_storeu_si256(reinterpret_cast<__m256i *>(sums + i), _mm256_add_epi16(_mm256_add_epi16(a, b), c));
+    }
+    for (; i < n; ++i)
+        sums[i] = std::uint16_t(r0[i] + r1[i] + r2[i]);
+    // Halves of packus(h0..15, h16..31): [h0..7, h16..23] and [h8..15, h24..31]; of
+    // packus(h32..47, itself): [h32..39, ...] and [h40..47, ...]. 0x80: none.
+    const __m128i pick_a = _mm_setr_epi8(0, 3, 6, -128, -128, -128, 10, 13, -128, -128, -128, -128, -128, -128, -128, -128);
+    const __m128i pick_b = _mm_setr_epi8(-128, -128, -128, 1, 4, 7, -128, -128, 8, 11, 14, -128, -128, -128, -128, -128);
+    const __m128i pick_c = _mm_setr_epi8(-128, -128, -128, -128, -128, -128, -128, -128, -128, -128, -128, 1, 4, 7, -128, -128);
+    const __m128i pick_d = _mm_setr_epi8(-128, -128, -128, -128, -128, -128, -128, -128, -128, -128, -128, -128, -128, -128, 2, 5);
+    int o = 0;
+    // The last group reads sums up to 3 * o + 49: within the row's sums plus the 32 spare.
+    for (; o + 16 <= out_n; o += 16) {
+        const std::uint16_t *s = sums + 3 * o;
+        const __m256i p1 = _mm256_packus_epi16(averageOfThrees(s), averageOfThrees(s + 16));
+        const __m256i a2 = averageOfThrees(s + 32);
+        const __m256i p2 = _mm256_packus_epi16(a2, a2);
+        const __m128i v = _mm_or_si128(
+            _mm_or_si128(_mm_shuffle_epi8(_mm256_castsi256_si128(p1), pick_a),
+                         _mm_shuffle_epi8(_mm256_extracti128_si256(p1, 1), pick_b)),
+            _mm_or_si128(_mm_shuffle_epi8(_mm256_castsi256_si128(p2), pick_c),
+                         _mm_shuffle_epi8(_mm256_extracti128_si256(p2, 1), pick_d)));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(out + o), v);
+    }
+    return o;
+}
+
+#endif // UAVSTAB_HAVE_X86
 
 } // namespace
 
@@ -34,6 +97,14 @@ void boxDownscale3(const cv::Mat &src, cv::Mat &dst, std::vector<std::uint16_t> 
         const std::uint8_t *r0 = src.ptr<std::uint8_t>(3 * y), *r1 = src.ptr<std::uint8_t>(3 * y + 1),
                            *r2 = src.ptr<std::uint8_t>(3 * y + 2);
         std::uint8_t *out = dst.ptr<std::uint8_t>(y);
+#ifdef UAVSTAB_HAVE_X86
+        if (channels == 1 && cpuHasAvx2()) {
+            int o = boxRowAvx2(r0, r1, r2, sums, n, out, out_n);
+            for (; o < out_n; ++o)
+                out[o] = average9(unsigned(sums[3 * o]) + sums[3 * o + 1] + sums[3 * o + 2]);
+            continue;
+        }
+#endif
         int i = 0;
 #if CV_SIMD128
         for (; i + 16 <= n; i += 16) {
