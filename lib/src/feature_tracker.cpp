@@ -6,7 +6,6 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "lucas_kanade.hpp"
-#include "tracking_pyramid.hpp"
 #include "luma_extractor.hpp"
 
 namespace uavstab {
@@ -48,7 +47,7 @@ struct FeatureTracker::Impl {
     StabilizerConfig config;
     std::vector<RectF> auto_exclude;
     LumaExtractor luma;
-    std::vector<cv::Mat> previous_pyramid, current_pyramid;
+    LucasKanadePyramid previous_pyramid, current_pyramid;
     std::vector<cv::Point2f> tracks;  // positions in the previous frame, analysis pixels
     std::vector<cv::Point2f> forward;
     std::vector<std::size_t> kept;           // tracks that passed the forward checks
@@ -65,7 +64,7 @@ struct FeatureTracker::Impl {
     cv::Size analysis;
     LkGeometry lk{};
 
-    void detect(const std::vector<cv::Mat> &pyramid);
+    void detect(const LucasKanadePyramid &pyramid);
     // LK from the previous pyramid into the current one and back, on `levels` levels above
     // the finest: `to` where each point went, `passed` set where the forward checks
     // (status, patch error, inside the image) and the forward-backward distance held.
@@ -128,13 +127,13 @@ void FeatureTracker::dropTracks(const std::vector<std::uint8_t> &drop)
     tracks.resize(k);
 }
 
-void FeatureTracker::Impl::detect(const std::vector<cv::Mat> &pyramid)
+void FeatureTracker::Impl::detect(const LucasKanadePyramid &pyramid)
 {
     // Corners are found on the half-size level when it is big enough: a quarter of the
     // pixels for the eigenvalue map, and LK follows whatever point it is given anyway.
-    // The pyramid holds image, derivatives, image, derivatives... per level.
-    const int level = pyramid.size() > 2 && std::min(pyramid[2].cols, pyramid[2].rows) >= kMinDetectionSide ? 1 : 0;
-    const cv::Mat &image = pyramid[std::size_t(2 * level)];
+    const int level =
+        pyramid.levelCount() > 1 && std::min(pyramid.image(1).cols, pyramid.image(1).rows) >= kMinDetectionSide ? 1 : 0;
+    const cv::Mat &image = pyramid.image(level);
     const double margin = (1.0 - config.roi) * 0.5;
     const cv::Rect roi(int(image.cols * margin), int(image.rows * margin),
                        std::max(1, int(std::lround(image.cols * config.roi))),
@@ -303,9 +302,7 @@ PointMatches FeatureTracker::track(const FrameView &frame)
     // The pyramid is built once per frame and serves the forward track into this frame
     // and, next frame, the backward check and the track out of it. It copies the luma,
     // so the caller's frame need not outlive this call.
-    // With the derivatives: LK would otherwise compute them for whole levels itself, twice
-    // per frame (forward into it, backward out of it).
-    buildTrackingPyramid(luma, d.current_pyramid, d.lk.window, d.lk.levels);
+    buildLucasKanadePyramid(luma, d.current_pyramid, d.lk.window, d.lk.levels);
 
     PointMatches matches;
     matches.first = !d.has_previous;

@@ -6,6 +6,8 @@
 
 #include <opencv2/video/tracking.hpp>
 
+#include "scharr_derivatives.hpp"
+
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
 #define UAVSTAB_HAVE_X86 1
@@ -57,11 +59,15 @@ struct LaneSums {
 
 // The previous image's window around a point: 32 x grey level and the derivatives per
 // pixel, rows of `chunks * 8` lanes (lanes past the window's width: zero derivatives).
+// `deriv`: the image derivatives of the pixels the window's samples read (its width and
+// height plus one, and the vector kernel's spare lanes), interleaved (dx, dy).
 struct Window {
     int width = 0, height = 0, chunks = 0;
     std::vector<std::int32_t> image;
     std::vector<float> dx, dy;
     float a11 = 0.f, a12 = 0.f, a22 = 0.f;
+    std::vector<std::int16_t> deriv;
+    std::size_t deriv_step = 0;  // int16 per row
 
     void resize(cv::Size size)
     {
@@ -72,7 +78,10 @@ struct Window {
         image.assign(n, 0);
         dx.assign(n, 0.f);
         dy.assign(n, 0.f);
+        deriv_step = 2 * std::size_t(derivRegion().width) + 16;
+        deriv.assign(deriv_step * std::size_t(height + 1), 0);
     }
+    cv::Size derivRegion() const { return {chunks * kLanes + 1, height + 1}; }
     std::size_t rowOffset(int y) const { return std::size_t(y) * std::size_t(chunks) * kLanes; }
 };
 
@@ -90,14 +99,14 @@ inline bool vectorReadsFit(const cv::Mat &m, cv::Point2i ip, const Window &w)
 
 // --- Scalar kernel: the reference. ---
 
-void sampleWindowScalar(const cv::Mat &image, const cv::Mat &deriv, cv::Point2i ip, const Weights &w, Window &win)
+void sampleWindowScalar(const cv::Mat &image, cv::Point2i ip, const Weights &w, Window &win)
 {
     const std::size_t image_step = image.step[0];
-    const std::size_t deriv_step = deriv.step[0] / sizeof(std::int16_t);
+    const std::size_t deriv_step = win.deriv_step;
     LaneSums a11, a12, a22;
     for (int y = 0; y < win.height; ++y) {
         const std::uint8_t *src = image.ptr<std::uint8_t>(ip.y + y) + ip.x;
-        const std::int16_t *dsrc = deriv.ptr<std::int16_t>(ip.y + y) + ip.x * 2;
+        const std::int16_t *dsrc = win.deriv.data() + std::size_t(y) * deriv_step;
         const std::size_t row = win.rowOffset(y);
         for (int x = 0; x < win.width; ++x) {
             const int ival = descale(src[x] * w.w00 + src[x + 1] * w.w01 + src[x + image_step] * w.w10 +
@@ -199,11 +208,11 @@ __attribute__((target("avx2"))) inline __m256 lastChunkMask(const Window &win, i
     return _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(valid), lane));
 }
 
-__attribute__((target("avx2"))) void sampleWindowAvx2(const cv::Mat &image, const cv::Mat &deriv, cv::Point2i ip,
-                                                      const Weights &w, Window &win)
+__attribute__((target("avx2"))) void sampleWindowAvx2(const cv::Mat &image, cv::Point2i ip, const Weights &w,
+                                                      Window &win)
 {
     const std::size_t image_step = image.step[0];
-    const std::size_t deriv_step = deriv.step[0] / sizeof(std::int16_t);
+    const std::size_t deriv_step = win.deriv_step;
     const __m256i w_top = packedWeights(w.w00, w.w01), w_bottom = packedWeights(w.w10, w.w11);
     const __m256i round_deriv = _mm256_set1_epi32(1 << (kWeightBits - 1));
     const int last = win.chunks - 1;
@@ -211,7 +220,7 @@ __attribute__((target("avx2"))) void sampleWindowAvx2(const cv::Mat &image, cons
     __m256 a11 = _mm256_setzero_ps(), a12 = _mm256_setzero_ps(), a22 = _mm256_setzero_ps();
     for (int y = 0; y < win.height; ++y) {
         const std::uint8_t *src = image.ptr<std::uint8_t>(ip.y + y) + ip.x;
-        const std::int16_t *dsrc = deriv.ptr<std::int16_t>(ip.y + y) + ip.x * 2;
+        const std::int16_t *dsrc = win.deriv.data() + std::size_t(y) * deriv_step;
         const std::size_t row = win.rowOffset(y);
         for (int k = 0; k < win.chunks; ++k) {
             const int x = k * kLanes;
@@ -306,13 +315,14 @@ bool cpuHasAvx2()
 struct Kernels {
     bool vector = false;
 
-    void sampleWindow(const cv::Mat &image, const cv::Mat &deriv, cv::Point2i ip, const Weights &w, Window &win) const
+    void sampleWindow(const cv::Mat &image, cv::Point2i ip, const Weights &w, Window &win) const
     {
+        scharrRegion(image, ip, win.derivRegion(), win.deriv.data(), win.deriv_step, vector);
 #ifdef UAVSTAB_HAVE_X86
-        if (vector && vectorReadsFit(image, ip, win) && vectorReadsFit(deriv, ip, win))
-            return sampleWindowAvx2(image, deriv, ip, w, win);
+        if (vector && vectorReadsFit(image, ip, win))
+            return sampleWindowAvx2(image, ip, w, win);
 #endif
-        sampleWindowScalar(image, deriv, ip, w, win);
+        sampleWindowScalar(image, ip, w, win);
     }
     void residual(const cv::Mat &next, cv::Point2i ip, const Weights &w, const Window &win, float &b1, float &b2) const
     {
@@ -343,23 +353,22 @@ inline bool outside(cv::Point2i ip, cv::Size window, const cv::Mat &m)
 }
 
 // One point through the pyramid, as cv::calcOpticalFlowPyrLK's LKTrackerInvoker.
-void trackPoint(const std::vector<cv::Mat> &previous, const std::vector<cv::Mat> &next, cv::Point2f from,
+void trackPoint(const LucasKanadePyramid &previous, const LucasKanadePyramid &next, cv::Point2f from,
                 cv::Point2f &to, std::uint8_t &status, float *error, int max_level, const LucasKanadeParams &p,
                 double epsilon2, const Kernels &kernels, Window &win)
 {
     const cv::Point2f half_window((p.window.width - 1) * 0.5f, (p.window.height - 1) * 0.5f);
     status = 1;
     for (int level = max_level; level >= 0; --level) {
-        const cv::Mat &image = previous[std::size_t(2 * level)];
-        const cv::Mat &deriv = previous[std::size_t(2 * level + 1)];
-        const cv::Mat &next_image = next[std::size_t(2 * level)];
+        const cv::Mat &image = previous.image(level);
+        const cv::Mat &next_image = next.image(level);
         cv::Point2f prev_pt = from * float(1. / (1 << level));
         cv::Point2f next_pt = level == max_level ? prev_pt : to * 2.f;
         to = next_pt;
 
         prev_pt -= half_window;
         const cv::Point2i ip = floorPoint(prev_pt);
-        if (outside(ip, p.window, deriv)) {
+        if (outside(ip, p.window, image)) {
             if (level == 0) {
                 status = 0;
                 if (error != nullptr)
@@ -367,7 +376,7 @@ void trackPoint(const std::vector<cv::Mat> &previous, const std::vector<cv::Mat>
             }
             continue;
         }
-        kernels.sampleWindow(image, deriv, ip, weightsAt(prev_pt, ip), win);
+        kernels.sampleWindow(image, ip, weightsAt(prev_pt, ip), win);
         const float a11 = win.a11 * kSumScale, a12 = win.a12 * kSumScale, a22 = win.a22 * kSumScale;
         float det = a11 * a22 - a12 * a12;
         const float min_eigen = (a22 + a11 - std::sqrt((a11 - a22) * (a11 - a22) + 4.f * a12 * a12)) /
@@ -428,7 +437,14 @@ bool lucasKanadeHasAvx2()
 #endif
 }
 
-void trackLucasKanade(const std::vector<cv::Mat> &previous, const std::vector<cv::Mat> &next,
+void buildLucasKanadePyramid(const cv::Mat &image, LucasKanadePyramid &pyramid, cv::Size window, int max_level)
+{
+    pyramid.derivatives = !lucasKanadeHasAvx2();
+    cv::buildOpticalFlowPyramid(image, pyramid.levels, window, max_level, pyramid.derivatives, cv::BORDER_REFLECT_101,
+                                cv::BORDER_CONSTANT, false);
+}
+
+void trackLucasKanade(const LucasKanadePyramid &previous, const LucasKanadePyramid &next,
                       const std::vector<cv::Point2f> &from, std::vector<cv::Point2f> &to,
                       std::vector<std::uint8_t> &status, std::vector<float> *errors, const LucasKanadeParams &params,
                       LucasKanadeKernel kernel)
@@ -437,31 +453,19 @@ void trackLucasKanade(const std::vector<cv::Mat> &previous, const std::vector<cv
         const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, params.max_iterations,
                                         params.epsilon);
         if (errors != nullptr)
-            cv::calcOpticalFlowPyrLK(previous, next, from, to, status, *errors, params.window, params.max_level,
-                                     criteria, 0, params.min_eigen_threshold);
+            cv::calcOpticalFlowPyrLK(previous.levels, next.levels, from, to, status, *errors, params.window,
+                                     params.max_level, criteria, 0, params.min_eigen_threshold);
         else
-            cv::calcOpticalFlowPyrLK(previous, next, from, to, status, cv::noArray(), params.window,
+            cv::calcOpticalFlowPyrLK(previous.levels, next.levels, from, to, status, cv::noArray(), params.window,
                                      params.max_level, criteria, 0, params.min_eigen_threshold);
         return;
     }
-    CV_Assert(previous.size() >= 2 && previous.size() % 2 == 0 && next.size() >= 1);
+    CV_Assert(!previous.empty() && !next.empty());
     CV_Assert(params.window.width >= 3 && params.window.height >= 3);
-    // Levels both pyramids have (`next` may carry derivatives too, or only images).
-    const int next_step = next.size() > 1 && next[1].type() == CV_16SC2 ? 2 : 1;
-    const int levels = std::min(int(previous.size()) / 2, (int(next.size()) + next_step - 1) / next_step);
-    const int max_level = std::clamp(params.max_level, 0, levels - 1);
-    std::vector<cv::Mat> next_images;
-    const std::vector<cv::Mat> *next_pyramid = &next;
-    if (next_step == 1) {  // trackPoint reads next[2 * level]
-        next_images.resize(std::size_t(2 * levels));
-        for (int l = 0; l < levels; ++l)
-            next_images[std::size_t(2 * l)] = next[std::size_t(l)];
-        next_pyramid = &next_images;
-    }
+    const int max_level = std::clamp(params.max_level, 0, std::min(previous.levelCount(), next.levelCount()) - 1);
     const double epsilon2 = params.epsilon * params.epsilon;
-    const int iterations = std::clamp(params.max_iterations, 0, 100);
     LucasKanadeParams p = params;
-    p.max_iterations = iterations;
+    p.max_iterations = std::clamp(params.max_iterations, 0, 100);
 
     Kernels kernels;
     kernels.vector = kernel == LucasKanadeKernel::Best;
@@ -472,8 +476,8 @@ void trackLucasKanade(const std::vector<cv::Mat> &previous, const std::vector<cv
     if (errors != nullptr)
         errors->assign(from.size(), 0.f);
     for (std::size_t i = 0; i < from.size(); ++i)
-        trackPoint(previous, *next_pyramid, from[i], to[i], status[i], errors != nullptr ? &(*errors)[i] : nullptr,
-                   max_level, p, epsilon2, kernels, win);
+        trackPoint(previous, next, from[i], to[i], status[i], errors != nullptr ? &(*errors)[i] : nullptr, max_level,
+                   p, epsilon2, kernels, win);
 }
 
 } // namespace uavstab

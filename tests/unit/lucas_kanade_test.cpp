@@ -1,5 +1,6 @@
 // The point tracker's Lucas-Kanade: the AVX2 kernel against the scalar reference (bit for
-// bit), and both against cv::calcOpticalFlowPyrLK, whose algorithm they follow.
+// bit), and both against cv::calcOpticalFlowPyrLK, whose algorithm they follow (on a
+// pyramid without stored derivatives it computes them itself).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -16,7 +17,7 @@ using namespace uavstab;
 namespace {
 
 struct Pair {
-    std::vector<cv::Mat> previous, next;
+    LucasKanadePyramid previous, next;
     std::vector<cv::Point2f> points;
 };
 
@@ -35,10 +36,8 @@ Pair makePair(cv::Size window, int levels, std::uint32_t seed)
     cv::Mat a, b;
     cv::cvtColor(flight.renderBgr(1), a, cv::COLOR_BGR2GRAY);
     cv::cvtColor(flight.renderBgr(2), b, cv::COLOR_BGR2GRAY);
-    cv::buildOpticalFlowPyramid(a, pair.previous, window, levels, true, cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT,
-                                false);
-    cv::buildOpticalFlowPyramid(b, pair.next, window, levels, true, cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT,
-                                false);
+    buildLucasKanadePyramid(a, pair.previous, window, levels);
+    buildLucasKanadePyramid(b, pair.next, window, levels);
     cv::goodFeaturesToTrack(a, pair.points, 200, 0.01, 8);
     const float w = float(a.cols - 1), h = float(a.rows - 1);
     for (const cv::Point2f p : {cv::Point2f(0.f, 0.f), cv::Point2f(w, h), cv::Point2f(w, 0.f), cv::Point2f(0.f, h),
@@ -131,9 +130,9 @@ TEST(LucasKanadeTracking, RecoversAKnownShift)
     cv::GaussianBlur(a, a, cv::Size(0, 0), 2.0);
     const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, 2.6, 0, 1, -1.3);
     cv::warpAffine(a, b, shift, a.size(), cv::INTER_CUBIC, cv::BORDER_REFLECT_101);
-    std::vector<cv::Mat> pa, pb;
-    cv::buildOpticalFlowPyramid(a, pa, cv::Size(21, 21), 2, true, cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
-    cv::buildOpticalFlowPyramid(b, pb, cv::Size(21, 21), 2, true, cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
+    LucasKanadePyramid pa, pb;
+    buildLucasKanadePyramid(a, pa, cv::Size(21, 21), 2);
+    buildLucasKanadePyramid(b, pb, cv::Size(21, 21), 2);
     std::vector<cv::Point2f> points, to;
     cv::goodFeaturesToTrack(a(cv::Rect(30, 30, 260, 180)), points, 60, 0.01, 10);
     for (auto &p : points)
