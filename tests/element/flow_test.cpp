@@ -863,6 +863,53 @@ ELEMENT_TEST(flush_unblocks_a_chain_waiting_for_output_buffers)
     gst_harness_teardown(h);
 }
 
+ELEMENT_TEST(shutdown_unblocks_a_chain_waiting_for_room)
+{
+    // Downstream blocks the src task's first push: finalized frames pile up and the chain
+    // waits for room (after estimating its frame). Going to NULL must wake it with FLUSHING,
+    // not hang, and free every frame it held.
+    GstHarness *h = makeHarness(makeStabilizer("threads=2 delay=2"));
+    GstCaps *caps = videoCaps("I420", 64, 48);
+    const GstVideoInfo info = videoInfo(caps);
+    gst_harness_set_src_caps(h, caps);
+    GstPad *src = gst_element_get_static_pad(h->element, "src");
+    gst_pad_add_probe(src, GST_PAD_PROBE_TYPE_BLOCK_DOWNSTREAM, [](GstPad *, GstPadProbeInfo *, gpointer) {
+        return GST_PAD_PROBE_OK;
+    }, nullptr, nullptr);
+    gst_object_unref(src);
+    std::atomic<GstFlowReturn> last{GST_FLOW_OK};
+    std::atomic<int> pushed{0};
+    std::atomic<bool> done{false};
+    std::vector<GstBuffer *> frames;
+    for (int i = 0; i < 20; ++i) {
+        frames.push_back(makeFrame(info, i));
+        ++live_inputs;
+        gst_mini_object_weak_ref(GST_MINI_OBJECT(frames.back()), inputFreed, nullptr);
+    }
+    std::thread streaming([&] {
+        for (GstBuffer *frame : frames) {
+            last = gst_harness_push(h, frame);
+            if (last != GST_FLOW_OK)
+                break;
+            ++pushed;
+        }
+        done = true;
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    fail_unless(pushed < 20, "the chain never blocked (%d frames pushed)", pushed.load());
+    fail_if(done.load());
+    gst_element_set_state(h->element, GST_STATE_NULL);
+    for (int i = 0; i < 200 && !done; ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    fail_unless(done.load(), "the chain still waits 10 s after the element went to NULL");
+    streaming.join();
+    fail_unless_equals_int(last.load(), GST_FLOW_FLUSHING);
+    for (std::size_t i = std::size_t(pushed) + 1; i < frames.size(); ++i)
+        gst_buffer_unref(frames[i]);  // never pushed
+    gst_harness_teardown(h);
+    fail_unless_equals_int(live_inputs.load(), 0);
+}
+
 GST_START_TEST(warm_up)
 {
     GstHarness *h = smallHarness("delay=1");
@@ -906,6 +953,7 @@ Suite *flowSuite()
     tcase_add_test(tc, failed_frames_pass_through_with_one_warning);
     tcase_add_test(tc, small_downstream_pool_neither_starves_nor_deadlocks);
     tcase_add_test(tc, flush_unblocks_a_chain_waiting_for_output_buffers);
+    tcase_add_test(tc, shutdown_unblocks_a_chain_waiting_for_room);
     return s;
 }
 
