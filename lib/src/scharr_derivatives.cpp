@@ -73,9 +73,8 @@ void scharrRegion(const cv::Mat &level, cv::Point origin, cv::Size size, std::in
                   bool vector)
 {
     CV_Assert(level.type() == CV_8UC1);
-    bool use_vector = false;
 #ifdef UAVSTAB_HAVE_X86
-    use_vector = vector && cpuHasAvx2();
+    const bool use_vector = vector && cpuHasAvx2();
 #else
     (void)vector;
 #endif
