@@ -292,8 +292,8 @@ void driver(const Options &o, bool element)
         "library and element alike (the element's heap includes appsrc's queue of up to 3 frames, which the verdict leaves out: they are the harness's). Library: "
         "`Stabilizer::pushHeld`, then each frame the delay lets go of is finalized (takes an output frame) once at "
         "most %zu finalized frames (the warp threads less one) are not yet popped, as the element's chain does; the end of the stream is "
-        "drained one frame at a time the same way. Element: `appsrc ! uavstabilize ! fakesink`, appsrc "
-        "queueing at most 3 frames.",
+        "drained one frame at a time the same way. Element: `appsrc ! uavstabilize ! fakesink "
+        "enable-last-sample=false` (the sink keeps no frame of its own), appsrc queueing at most 3 frames.",
         kDistinct, delay, kBudgetExtraFrames, budget, libraryMaxFinalized()));
     Table t({"resolution", "what", "frames", "frame MiB", "base RSS MiB", "peak RSS MiB", "peak - base MiB", "= frames",
              "peak heap in use - base MiB", "= frames", "heap within budget"});
@@ -351,8 +351,9 @@ void driver(const Options &o, bool element)
         "finalized whose warp is not done or that are not yet popped; outputs = output frames alive (library: "
         "warps in flight and popped frames not yet let go; element: the same, and the buffers back in its output "
         "pool, which keeps them); appsrc queue = input frames not yet taken by the element (the harness's); the rest = the "
-        "peak minus those frames: the motion estimator's pyramids (two, with derivatives, of the analysis image at "
-        "most 640 wide: ~5 MiB whatever the resolution), scratch, GStreamer's own and the allocator's.");
+        "peak minus those frames: the motion estimator's pyramids (two, of the analysis image at most 640 wide: "
+        "about 1 MiB; on machines without AVX2 also their derivatives, 4 more), scratch, GStreamer's own and the "
+        "allocator's.");
     frag.table(b);
 
     // Long stream.

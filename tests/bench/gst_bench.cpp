@@ -100,7 +100,7 @@ ElementRun::ElementRun(const GstFrames &frames, const std::string &element_props
     : frames_(frames)
 {
     const std::string desc = "appsrc name=src ! uavstabilize name=stab " + element_props +
-                             " ! fakesink name=sink sync=false async=false signal-handoffs=true";
+                             " ! fakesink name=sink sync=false async=false signal-handoffs=true enable-last-sample=false";
     GError *err = nullptr;
     pipeline_ = gst_parse_launch(desc.c_str(), &err);
     if (!pipeline_ || err) {
