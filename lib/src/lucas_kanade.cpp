@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 #include <opencv2/video/tracking.hpp>
@@ -428,18 +430,27 @@ void trackPoint(const LucasKanadePyramid &previous, const LucasKanadePyramid &ne
 
 } // namespace
 
-bool lucasKanadeHasAvx2()
+bool lucasKanadeRunsAvx2()
 {
+    static const bool chosen = [] {
 #ifdef UAVSTAB_HAVE_X86
-    return cpuHasAvx2();
+        bool avx2 = cpuHasAvx2();
 #else
-    return false;
+        bool avx2 = false;
 #endif
+        const char *env = std::getenv("UAVSTAB_LK_KERNEL");
+        if (env != nullptr && std::strcmp(env, "opencv") == 0)
+            avx2 = false;
+        else if (env != nullptr && *env != '\0' && std::strcmp(env, "avx2") != 0)
+            std::fprintf(stderr, "uavstab: UAVSTAB_LK_KERNEL=%s is not one of avx2, opencv: ignored\n", env);
+        return avx2;
+    }();
+    return chosen;
 }
 
 void buildLucasKanadePyramid(const cv::Mat &image, LucasKanadePyramid &pyramid, cv::Size window, int max_level)
 {
-    pyramid.derivatives = !lucasKanadeHasAvx2();
+    pyramid.derivatives = !lucasKanadeRunsAvx2();
     cv::buildOpticalFlowPyramid(image, pyramid.levels, window, max_level, pyramid.derivatives, cv::BORDER_REFLECT_101,
                                 cv::BORDER_CONSTANT, false);
 }
@@ -449,7 +460,7 @@ void trackLucasKanade(const LucasKanadePyramid &previous, const LucasKanadePyram
                       std::vector<std::uint8_t> &status, std::vector<float> *errors, const LucasKanadeParams &params,
                       LucasKanadeKernel kernel)
 {
-    if (kernel == LucasKanadeKernel::OpenCv || (kernel == LucasKanadeKernel::Best && !lucasKanadeHasAvx2())) {
+    if (kernel == LucasKanadeKernel::OpenCv || (kernel == LucasKanadeKernel::Best && !lucasKanadeRunsAvx2())) {
         const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, params.max_iterations,
                                         params.epsilon);
         if (errors != nullptr)

@@ -33,7 +33,7 @@ struct LucasKanadePyramid {
 };
 
 enum class LucasKanadeKernel {
-    Best,    // AVX2 where the CPU has it, else OpenCV's own implementation
+    Best,    // AVX2 where the CPU has it (see lucasKanadeRunsAvx2), else OpenCV's own implementation
     Scalar,  // the reference the AVX2 kernel matches bit for bit
     OpenCv,  // cv::calcOpticalFlowPyrLK
 };
@@ -51,7 +51,8 @@ void trackLucasKanade(const LucasKanadePyramid &previous, const LucasKanadePyram
                       std::vector<std::uint8_t> &status, std::vector<float> *errors,
                       const LucasKanadeParams &params, LucasKanadeKernel kernel = LucasKanadeKernel::Best);
 
-// Whether LucasKanadeKernel::Best runs the AVX2 kernel on this machine.
-bool lucasKanadeHasAvx2();
+// Whether LucasKanadeKernel::Best runs the AVX2 kernel here: the CPU has AVX2 and the
+// environment does not say UAVSTAB_LK_KERNEL=opencv (which runs OpenCV's LK, as on ARM).
+bool lucasKanadeRunsAvx2();
 
 } // namespace uavstab
