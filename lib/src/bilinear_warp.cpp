@@ -10,9 +10,10 @@
 
 #include <opencv2/core/hal/intrin.hpp>
 
-#if defined(__x86_64__) || defined(__i386__)
+#include "cpu_features.hpp"
+
+#ifdef UAVSTAB_HAVE_X86
 #include <immintrin.h>
-#define UAVSTAB_HAVE_X86 1
 #endif
 
 // The 128-bit kernel: OpenCV's universal intrinsics (SSE2 on x86, NEON on ARM at compile
@@ -346,12 +347,6 @@ __attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uin
         const int x = chunks_in_row * kChunk;
         samplePixels(src, channels, m, replicate, border, out, x, y, dst_width - x);
     }
-}
-
-bool cpuHasAvx2()
-{
-    static const bool has = __builtin_cpu_supports("avx2");
-    return has;
 }
 
 #endif // UAVSTAB_HAVE_X86

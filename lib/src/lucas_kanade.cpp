@@ -10,9 +10,10 @@
 
 #include "scharr_derivatives.hpp"
 
-#if defined(__x86_64__) || defined(__i386__)
+#include "cpu_features.hpp"
+
+#ifdef UAVSTAB_HAVE_X86
 #include <immintrin.h>
-#define UAVSTAB_HAVE_X86 1
 #endif
 
 namespace uavstab {
@@ -304,12 +305,6 @@ __attribute__((target("avx2"))) float absoluteDifferenceAvx2(const cv::Mat &next
         }
     }
     return laneTotal(s);
-}
-
-bool cpuHasAvx2()
-{
-    static const bool has = __builtin_cpu_supports("avx2");
-    return has;
 }
 
 #endif // UAVSTAB_HAVE_X86

@@ -7,9 +7,10 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
-#if defined(__x86_64__) || defined(__i386__)
+#include "cpu_features.hpp"
+
+#ifdef UAVSTAB_HAVE_X86
 #include <immintrin.h>
-#define UAVSTAB_HAVE_X86 1
 #endif
 
 namespace uavstab {
@@ -24,12 +25,6 @@ inline std::uint8_t average9(unsigned sum)
 }
 
 #ifdef UAVSTAB_HAVE_X86
-
-bool cpuHasAvx2()
-{
-    static const bool has = __builtin_cpu_supports("avx2");
-    return has;
-}
 
 // average9 of sums s[i] + s[i + 1] + s[i + 2], i = 0..15.
 __attribute__((target("avx2"))) inline __m256i averageOfThrees(const std::uint16_t *s)

@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cstring>
 
-#if defined(__x86_64__) || defined(__i386__)
+#include "cpu_features.hpp"
+
+#ifdef UAVSTAB_HAVE_X86
 #include <immintrin.h>
-#define UAVSTAB_HAVE_X86 1
 #endif
 
 namespace uavstab {
@@ -27,12 +28,6 @@ void rowScalar(const std::uint8_t *above, const std::uint8_t *centre, const std:
 }
 
 #ifdef UAVSTAB_HAVE_X86
-
-bool cpuHasAvx2()
-{
-    static const bool has = __builtin_cpu_supports("avx2");
-    return has;
-}
 
 __attribute__((target("avx2"))) inline __m256i widen(const std::uint8_t *p)
 {
