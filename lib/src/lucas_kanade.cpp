@@ -88,16 +88,25 @@ struct Window {
     std::size_t rowOffset(int y) const { return std::size_t(y) * std::size_t(chunks) * kLanes; }
 };
 
+// Row y, column x of an 8-bit pyramid level; either may lie in the level's border, so
+// negative. Signed arithmetic: Mat::ptr's unsigned offset wraps for a negative row.
+inline const std::uint8_t *pixelAt(const cv::Mat &m, int y, int x)
+{
+    return m.data + std::ptrdiff_t(y) * std::ptrdiff_t(m.step[0]) + x;
+}
+
 // Whether every byte a vector kernel reads for a window at `ip` (rows ip.y .. ip.y + height,
 // columns ip.x .. ip.x + chunks * 8, the last lanes past the window included) lies in the
 // pyramid level's allocation. The scalar kernel reads only what OpenCV reads.
 inline bool vectorReadsFit(const cv::Mat &m, cv::Point2i ip, const Window &w)
 {
     const std::size_t pixel = m.elemSize();
-    const std::uint8_t *first = m.data + std::ptrdiff_t(ip.y) * std::ptrdiff_t(m.step[0]) + std::ptrdiff_t(ip.x) * std::ptrdiff_t(pixel);
-    const std::uint8_t *last = m.data + std::ptrdiff_t(ip.y + w.height) * std::ptrdiff_t(m.step[0]) +
-                               std::ptrdiff_t(ip.x + w.chunks * kLanes + 1) * std::ptrdiff_t(pixel);
-    return first >= m.datastart && last <= m.dataend;
+    // As integers: a pointer formed outside the allocation would itself be undefined.
+    const auto base = std::intptr_t(m.data);
+    const std::intptr_t first = base + std::intptr_t(ip.y) * std::intptr_t(m.step[0]) + std::intptr_t(ip.x) * std::intptr_t(pixel);
+    const std::intptr_t last = base + std::intptr_t(ip.y + w.height) * std::intptr_t(m.step[0]) +
+                               std::intptr_t(ip.x + w.chunks * kLanes + 1) * std::intptr_t(pixel);
+    return first >= std::intptr_t(m.datastart) && last <= std::intptr_t(m.dataend);
 }
 
 // --- Scalar kernel: the reference. ---
@@ -108,7 +117,7 @@ void sampleWindowScalar(const cv::Mat &image, cv::Point2i ip, const Weights &w, 
     const std::size_t deriv_step = win.deriv_step;
     LaneSums a11, a12, a22;
     for (int y = 0; y < win.height; ++y) {
-        const std::uint8_t *src = image.ptr<std::uint8_t>(ip.y + y) + ip.x;
+        const std::uint8_t *src = pixelAt(image, ip.y + y, ip.x);
         const std::int16_t *dsrc = win.deriv.data() + std::size_t(y) * deriv_step;
         const std::size_t row = win.rowOffset(y);
         for (int x = 0; x < win.width; ++x) {
@@ -146,7 +155,7 @@ void residualScalar(const cv::Mat &next, cv::Point2i ip, const Weights &w, const
     const std::size_t step = next.step[0];
     LaneSums s1, s2;
     for (int y = 0; y < win.height; ++y) {
-        const std::uint8_t *src = next.ptr<std::uint8_t>(ip.y + y) + ip.x;
+        const std::uint8_t *src = pixelAt(next, ip.y + y, ip.x);
         const std::size_t row = win.rowOffset(y);
         for (int x = 0; x < win.width; ++x) {
             const float diff = float(sampleNext(src + x, step, w) - win.image[row + std::size_t(x)]);
@@ -163,7 +172,7 @@ float absoluteDifferenceScalar(const cv::Mat &next, cv::Point2i ip, const Weight
     const std::size_t step = next.step[0];
     LaneSums s;
     for (int y = 0; y < win.height; ++y) {
-        const std::uint8_t *src = next.ptr<std::uint8_t>(ip.y + y) + ip.x;
+        const std::uint8_t *src = pixelAt(next, ip.y + y, ip.x);
         const std::size_t row = win.rowOffset(y);
         for (int x = 0; x < win.width; ++x)
             s.v[x % kLanes] += float(std::abs(sampleNext(src + x, step, w) - win.image[row + std::size_t(x)]));
@@ -222,7 +231,7 @@ __attribute__((target("avx2"))) void sampleWindowAvx2(const cv::Mat &image, cv::
     const __m256 last_mask = lastChunkMask(win, last);
     __m256 a11 = _mm256_setzero_ps(), a12 = _mm256_setzero_ps(), a22 = _mm256_setzero_ps();
     for (int y = 0; y < win.height; ++y) {
-        const std::uint8_t *src = image.ptr<std::uint8_t>(ip.y + y) + ip.x;
+        const std::uint8_t *src = pixelAt(image, ip.y + y, ip.x);
         const std::int16_t *dsrc = win.deriv.data() + std::size_t(y) * deriv_step;
         const std::size_t row = win.rowOffset(y);
         for (int k = 0; k < win.chunks; ++k) {
@@ -268,7 +277,7 @@ __attribute__((target("avx2"))) void residualAvx2(const cv::Mat &next, cv::Point
     const __m256i w_top = packedWeights(w.w00, w.w01), w_bottom = packedWeights(w.w10, w.w11);
     __m256 s1 = _mm256_setzero_ps(), s2 = _mm256_setzero_ps();
     for (int y = 0; y < win.height; ++y) {
-        const std::uint8_t *src = next.ptr<std::uint8_t>(ip.y + y) + ip.x;
+        const std::uint8_t *src = pixelAt(next, ip.y + y, ip.x);
         const std::size_t row = win.rowOffset(y);
         for (int k = 0; k < win.chunks; ++k) {
             const int x = k * kLanes;
@@ -292,7 +301,7 @@ __attribute__((target("avx2"))) float absoluteDifferenceAvx2(const cv::Mat &next
     const __m256 last_mask = lastChunkMask(win, last);
     __m256 s = _mm256_setzero_ps();
     for (int y = 0; y < win.height; ++y) {
-        const std::uint8_t *src = next.ptr<std::uint8_t>(ip.y + y) + ip.x;
+        const std::uint8_t *src = pixelAt(next, ip.y + y, ip.x);
         const std::size_t row = win.rowOffset(y);
         for (int k = 0; k < win.chunks; ++k) {
             const int x = k * kLanes;
