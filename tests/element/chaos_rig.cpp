@@ -1016,6 +1016,7 @@ GstFlowReturn Rig::sinkChain(GstPad *pad, GstObject *, GstBuffer *buffer)
     self->log_[index].flow = ret;
     if (ret != GST_FLOW_OK)
         ++self->stats_.downstream_errors;
+    ++self->buffers_returned_;
     return ret;
 }
 

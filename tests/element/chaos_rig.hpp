@@ -140,6 +140,8 @@ public:
     // --- Waiting and checking.
     // EOS events that reached our sink pad so far (any thread; for tests that race it).
     int eosSeen() const { return eos_seen_.load(); }
+    // Buffers whose push into our sink pad has returned (any thread).
+    int buffersReturned() const { return buffers_returned_.load(); }
     // Waits until an EOS arrives downstream after log position `from`; false on timeout.
     bool waitForEosAfter(std::size_t from, int timeout_ms);
     // The same for any event type.
@@ -238,6 +240,7 @@ private:
     // Message counters (bus sync handler; read by the streaming thread around a push).
     std::atomic<int> bad_warnings_{0}, bad_errors_{0}, negotiation_errors_{0};
     std::atomic<int> eos_seen_{0};
+    std::atomic<int> buffers_returned_{0};
 };
 
 } // namespace chaos

@@ -810,6 +810,12 @@ ELEMENT_TEST(sticky_events_queued_at_a_flush_still_go_downstream)
         fail_unless_equals_int(rig.pushFrame(f), GST_FLOW_OK);
     }
     fail_unless(rig.waitForEventAfter(GST_EVENT_SEGMENT, 0, 10000));
+    // The first frame's push must be over before downstream blocks: a task blocked on it
+    // keeps it counted as finalized, and the next chain then rightly waits for room (the
+    // element's backpressure) while this thread, the only one to flush, is inside it.
+    for (int i = 0; i < 10000 && rig.buffersReturned() < 1; ++i)
+        g_usleep(1000);
+    fail_unless_equals_int(rig.buffersReturned(), 1);
     // The task is busy (downstream blocks) while a new STREAM_START and a TAG are queued.
     rig.setDownstream(Downstream::Block);
     std::size_t queued;
