@@ -13,6 +13,9 @@ constexpr int kUnknownsPerBand = 3;  // shift x, shift y, turn (px at half the w
 constexpr int kRounds = 3;           // reweighting rounds of the robust fit
 constexpr int kMaxTrackBands = 7;    // bands a track's weights are taken over (its nearest +-3)
 constexpr double kTukeyScale = 2.0;  // Tukey's weight falls to zero at this many times `robust`
+// ...and at twice that after the first round: a large wobble leaves the plain fit far from
+// many tracks, which a tight cut would drop before the bands could explain them.
+constexpr double kFirstRoundWidening = 2.0;
 
 struct Bands {
     int count;
@@ -119,11 +122,17 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     // Too few tracks to tell bands apart: the offsets fade out.
     const bool enough = n >= std::size_t(2 * band_count);
 
-    // What the similarity leaves: previous - motion(current), per track.
+    // What the similarity leaves: previous - motion(current), per track. A point sits on
+    // other rows in the previous frame when the camera moves, where that frame's offsets
+    // differ: taking them there leaves this frame's offsets minus the previous frame's at
+    // the same rows, the differences the bands fit (a vibration near a multiple of the
+    // frame rate bends consecutive frames alike, and these differences are all there is).
     std::vector<Point2> residual(n);
     for (std::size_t i = 0; i < n; ++i) {
         const Point2 m = motion.apply(current[i]);
-        residual[i] = {previous[i].x - m.x, previous[i].y - m.y};
+        const Point2 there = offsetAt(offsets_, bands, half_width, previous[i]);
+        const Point2 here = offsetAt(offsets_, bands, half_width, current[i]);
+        residual[i] = {previous[i].x - m.x - (there.x - here.x), previous[i].y - m.y - (there.y - here.y)};
     }
 
     // The bands' motion differences z (this frame's offsets minus the previous frame's,
@@ -208,7 +217,7 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
             for (std::size_t i = 0; i < n; ++i) {
                 const Point2 model_i = offsetAt(band_motion, bands, half_width, current[i]);
                 const double r = std::hypot(residual[i].x - model_i.x, residual[i].y - model_i.y);
-                const double u = r / (kTukeyScale * outlier);
+                const double u = r / (kTukeyScale * outlier * (round == 0 ? kFirstRoundWidening : 1.0));
                 robust_weight[i] = u < 1.0 ? (1.0 - u * u) * (1.0 - u * u) : 0.0;
                 sx += model_i.x;
                 sy += model_i.y;
