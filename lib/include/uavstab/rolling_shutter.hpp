@@ -51,15 +51,15 @@ public:
         double readout = 0.0;
         // Unknown readout (auto): no correction while the bands' residual motion stays
         // below `threshold` px RMS (at 640 px of width; it grows with the frame), full at
-        // twice that. The residual is averaged over about `settle` frames.
+        // 1.5 times that. The residual is averaged over about `settle` frames.
         bool automatic = true;
         double threshold = 0.3;
         int settle = 15;
         // Each frame keeps this share of the previous frame's offsets before adding its
         // own differences: an estimation error fades over some 15 frames. Higher follows a
-        // vibration that beats slowly with the frame rate better (0.85: 0.44x of the wobble
-        // left at 60 Hz; 0.93: 0.2x) but lets a bias build up on footage with parallax (the
-        // AR.Drone clip, tests/bench/REPORT.md: ITF 0.3 dB below off at 0.97).
+        // vibration that beats slowly with the frame rate better (a 60 Hz flight kept 0.44x of
+        // its wobble at 0.85, 0.26x at 0.93) but lets a bias build up on footage with
+        // parallax (the AR.Drone clip: ITF 0.38 dB below off at 0.97, 0.08 at 0.93).
         double leak = 0.93;
         // Penalty on differences between neighbouring bands and on the size of each band's
         // motion, per tracked point (px^2 per px^2).
