@@ -178,14 +178,58 @@ inline void samplePixels(const PlaneSpan &src, int channels, const double m[6], 
 // planChunksPortable): per chunk what planChunk returns.
 constexpr int kPlanChunks = 64;
 
+// Room for 3 entries past the last chunk: a planner writes groups of 4.
 struct RowPlan {
-    alignas(32) int ix0[kPlanChunks];
-    alignas(32) int iy0[kPlanChunks];
-    alignas(32) int frx[kPlanChunks];
-    alignas(32) int fry[kPlanChunks];
-    alignas(32) int ky_last[kPlanChunks];
-    alignas(32) int vector_ok[kPlanChunks];  // -1: a vector kernel takes the chunk
+    alignas(32) int ix0[kPlanChunks + 4];
+    alignas(32) int iy0[kPlanChunks + 4];
+    alignas(32) int frx[kPlanChunks + 4];
+    alignas(32) int fry[kPlanChunks + 4];
+    alignas(32) int ky_last[kPlanChunks + 4];
+    alignas(32) int vector_ok[kPlanChunks + 4];  // -1: a vector kernel takes the chunk
 };
+
+// The chunks [lo, hi) of row y that pass every one of planChunk's tests (all taps inside,
+// the windows inside the row, at most one row step) by a margin of 1/16 px, far beyond
+// the rounding of its double arithmetic: there the planner need only compute positions.
+// Along a row the source moves linearly (m[0] > 0), so each test bounds an interval.
+struct ChunkRange {
+    int lo = 0, hi = 0;
+};
+
+inline ChunkRange interiorChunks(const PlaneSpan &src, int channels, const double m[6], const LaneSteps &steps,
+                                 int y, int chunks_in_row)
+{
+    constexpr double kMargin = 1.0 / 16;
+    const double bx = m[1] * y + m[2], by = m[4] * y + m[5];
+    if (!(std::isfinite(bx) && std::isfinite(by) && m[0] > 0.0 && std::isfinite(m[3])))
+        return {};
+    const int last_window = steps.offset_x[steps.vectors - 1][steps.half_pixels * channels];
+    // sx0 = bx + 16 m0 c (the chunk's first pixel), the last pixel 15 m0 further; the last
+    // window's 16 bytes start at most last_window / 1024 px past sx0.
+    const double step_x = kChunk * m[0];
+    const double reach_x = std::max(m[0] * (kChunk - 1) + 1.0, last_window / 1024.0 + 16.0 / channels);
+    double c_lo = (kMargin - bx) / step_x;
+    double c_hi = (src.width - 1 - kMargin - reach_x - bx) / step_x;
+    // sy0 = by + 16 m3 c, the last pixel 15 m3 further; both rows of every tap inside.
+    const double below = std::min(0.0, m[3] * (kChunk - 1)), above = std::max(0.0, m[3] * (kChunk - 1));
+    const double y_lo = kMargin - below, y_hi = src.height - 1 - kMargin - above;  // sy0's bounds
+    const double step_y = kChunk * m[3];
+    if (step_y == 0.0) {
+        if (!(by >= y_lo && by <= y_hi))
+            return {};
+    } else if (step_y > 0.0) {
+        c_lo = std::max(c_lo, (y_lo - by) / step_y);
+        c_hi = std::min(c_hi, (y_hi - by) / step_y);
+    } else {
+        c_lo = std::max(c_lo, (y_hi - by) / step_y);
+        c_hi = std::min(c_hi, (y_lo - by) / step_y);
+    }
+    c_lo = std::clamp(std::ceil(c_lo), 0.0, double(chunks_in_row));
+    c_hi = std::clamp(std::floor(c_hi) + 1.0, 0.0, double(chunks_in_row));
+    if (!(c_hi > c_lo))
+        return {};
+    return {int(c_lo), int(c_hi)};
+}
 
 #ifdef UAVSTAB_HAVE_X86
 
@@ -208,9 +252,12 @@ __attribute__((target("avx2"))) inline __m256i interpolateRows(const std::uint8_
 // Where a run of chunks of one row reads (up to kPlanChunks at a time), decided four chunks
 // at once in double vectors: the same operations, so the same roundings and decisions,
 // as planChunk (no fused multiply-adds: the target has none).
+// Inside interiorChunks' range (Interior) only the positions are computed: every test
+// would pass there.
+template <bool Interior>
 __attribute__((target("avx2"))) inline void planChunksAvx2(const PlaneSpan &src, int channels, const double m[6],
                                                            const LaneSteps &steps, int x_begin, int chunks, int y,
-                                                           RowPlan &plan)
+                                                           RowPlan &plan, int at)
 {
     const __m256d m0 = _mm256_set1_pd(m[0]), m3 = _mm256_set1_pd(m[3]);
     const __m256d row_x = _mm256_set1_pd(m[1] * y), row_y = _mm256_set1_pd(m[4] * y);
@@ -228,6 +275,20 @@ __attribute__((target("avx2"))) inline void planChunksAvx2(const PlaneSpan &src,
         const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(0, 16, 32, 48)));
         const __m256d sx0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m0, xs), row_x), m2);
         const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), row_y), m5);
+        // Inside, sx0, sy0 >= 0: truncation is the floor. Lanes outside hold anything.
+        const __m128i ix0 = _mm256_cvttpd_epi32(sx0), iy0 = _mm256_cvttpd_epi32(sy0);
+        const __m128i frx = _mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(sx0, _mm256_cvtepi32_pd(ix0)), k1024));
+        const __m128i fry = _mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(sy0, _mm256_cvtepi32_pd(iy0)), k1024));
+        const __m128i ky_last = _mm_srai_epi32(_mm_add_epi32(fry, last_offset_y), 10);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ix0 + at + c), ix0);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.iy0 + at + c), iy0);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.frx + at + c), frx);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.fry + at + c), fry);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ky_last + at + c), ky_last);
+        if (Interior) {
+            _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.vector_ok + at + c), _mm_set1_epi32(-1));
+            continue;
+        }
         const __m256d sx1 = _mm256_add_pd(sx0, last_x), sy1 = _mm256_add_pd(sy0, last_y);
         // Every tap inside (false for NaN, as planChunk's comparisons).
         const __m256d inside = _mm256_and_pd(
@@ -235,11 +296,6 @@ __attribute__((target("avx2"))) inline void planChunksAvx2(const PlaneSpan &src,
                           _mm256_and_pd(_mm256_cmp_pd(sx0, width1, _CMP_LT_OQ), _mm256_cmp_pd(sx1, width1, _CMP_LT_OQ))),
             _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sy0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sy1, zero, _CMP_GE_OQ)),
                           _mm256_and_pd(_mm256_cmp_pd(sy0, height1, _CMP_LT_OQ), _mm256_cmp_pd(sy1, height1, _CMP_LT_OQ))));
-        // Inside, sx0, sy0 >= 0: truncation is the floor. Lanes outside hold anything.
-        const __m128i ix0 = _mm256_cvttpd_epi32(sx0), iy0 = _mm256_cvttpd_epi32(sy0);
-        const __m128i frx = _mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(sx0, _mm256_cvtepi32_pd(ix0)), k1024));
-        const __m128i fry = _mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(sy0, _mm256_cvtepi32_pd(iy0)), k1024));
-        const __m128i ky_last = _mm_srai_epi32(_mm_add_epi32(fry, last_offset_y), 10);
         const __m128i ky_min = _mm_min_epi32(zero_i, ky_last), ky_max = _mm_max_epi32(zero_i, ky_last);
         // planChunk's refusals: the last window past the row, two row steps, rows outside.
         const __m128i window_end =
@@ -252,13 +308,59 @@ __attribute__((target("avx2"))) inline void planChunksAvx2(const PlaneSpan &src,
         // The double mask's lanes are 64-bit: take one 32-bit half of each.
         const __m128i inside32 = _mm256_castsi256_si128(
             _mm256_permutevar8x32_epi32(_mm256_castpd_si256(inside), _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0)));
-        _mm_store_si128(reinterpret_cast<__m128i *>(plan.ix0 + c), ix0);
-        _mm_store_si128(reinterpret_cast<__m128i *>(plan.iy0 + c), iy0);
-        _mm_store_si128(reinterpret_cast<__m128i *>(plan.frx + c), frx);
-        _mm_store_si128(reinterpret_cast<__m128i *>(plan.fry + c), fry);
-        _mm_store_si128(reinterpret_cast<__m128i *>(plan.ky_last + c), ky_last);
-        _mm_store_si128(reinterpret_cast<__m128i *>(plan.vector_ok + c), _mm_andnot_si128(refused, inside32));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.vector_ok + at + c), _mm_andnot_si128(refused, inside32));
     }
+}
+
+// The lane layout of the AVX2 kernel, the same for every row's matrix.
+struct Avx2Lanes {
+    __m256i channel, high_mask, frac_mask, one, next_tap;
+};
+
+// The window offsets and lane steps of one row, for vector v of a chunk.
+struct Avx2RowSteps {
+    int window_lo, window_hi;
+    __m256i offset_x, offset_y;
+    __m256i window;  // window_lo in the low half's lanes, window_hi in the high half's
+};
+
+// One vector (16 lanes of 16-bit values, x64) of the chunk whose plan is (ix0, iy0, frx,
+// fry, ky_last): rows `row` and below, the chunk's source window read at two offsets.
+template <int C>
+__attribute__((target("avx2"))) inline __m256i chunkVectorAvx2(const std::uint8_t *src_data, std::size_t stride,
+                                                               const Avx2Lanes &lanes, const Avx2RowSteps &steps,
+                                                               int ix0, int iy0, int frx, int fry, int ky_last)
+{
+    const int ky_min = std::min(0, ky_last), ky_max = std::max(0, ky_last);
+    const std::uint8_t *row = src_data + std::size_t(iy0 + ky_min) * stride;
+    const __m256i frx_v = _mm256_set1_epi16(std::int16_t(frx));
+    const __m256i rel_x = _mm256_add_epi16(frx_v, steps.offset_x);
+    const __m256i rel_y = _mm256_add_epi16(_mm256_set1_epi16(std::int16_t(fry)), steps.offset_y);
+    // Each half reads a window that starts at its first pixel's left tap.
+    const int k0 = (frx + steps.window_lo) >> 10;
+    const int k1 = (frx + steps.window_hi) >> 10;
+    const __m256i kx = _mm256_srli_epi16(rel_x, 10);
+    const __m256i fx = _mm256_and_si256(_mm256_srli_epi16(rel_x, 10 - kFracBits), lanes.frac_mask);
+    const __m256i fy = _mm256_and_si256(_mm256_srai_epi16(rel_y, 10 - kFracBits), lanes.frac_mask);
+    const __m256i window_k = _mm256_srli_epi16(_mm256_add_epi16(frx_v, steps.window), 10);
+    // Shuffle control: byte of the left tap in the lane's window, right tap one pixel on.
+    __m256i left = _mm256_sub_epi16(kx, window_k);
+    if (C == 2) {
+        left = _mm256_add_epi16(left, left);
+        left = _mm256_add_epi16(left, lanes.channel);
+    }
+    const __m256i ctrl = _mm256_add_epi16(left, _mm256_add_epi16(_mm256_slli_epi16(left, 8), lanes.next_tap));
+    const __m256i wx = _mm256_or_si256(_mm256_sub_epi16(lanes.one, fx), _mm256_slli_epi16(fx, 8));
+    const __m256i fy_scaled = _mm256_slli_epi16(fy, 9);
+    const int byte0 = (ix0 + k0) * C, byte1 = (ix0 + k1) * C;
+
+    __m256i value = interpolateRows(row, row + stride, byte0, byte1, ctrl, wx, fy_scaled);
+    if (ky_max != ky_min) {
+        const __m256i lower = interpolateRows(row + stride, row + 2 * stride, byte0, byte1, ctrl, wx, fy_scaled);
+        const __m256i ky = _mm256_srai_epi16(rel_y, 10);
+        value = _mm256_blendv_epi8(value, lower, _mm256_cmpeq_epi16(ky, _mm256_set1_epi16(std::int16_t(ky_max))));
+    }
+    return _mm256_srli_epi16(_mm256_add_epi16(value, _mm256_set1_epi16(kOne / 2)), kFracBits);
 }
 
 template <int C, class Matrices>
@@ -267,14 +369,14 @@ __attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uin
                                                   bool replicate, const std::uint8_t border[4])
 {
     constexpr int channels = C;
+    Avx2Lanes lanes;
     // The lane layout (channel, half) is the same for every matrix.
-    const __m256i channel = _mm256_load_si256(reinterpret_cast<const __m256i *>(matrices.steps().channel));
-    const __m256i high_mask = _mm256_sub_epi16(
+    lanes.channel = _mm256_load_si256(reinterpret_cast<const __m256i *>(matrices.steps().channel));
+    lanes.high_mask = _mm256_sub_epi16(
         _mm256_setzero_si256(), _mm256_load_si256(reinterpret_cast<const __m256i *>(matrices.steps().is_high_half)));
-    const __m256i frac_mask = _mm256_set1_epi16(kOne - 1);
-    const __m256i one = _mm256_set1_epi16(kOne);
-    const __m256i round = _mm256_set1_epi16(kOne / 2);
-    const __m256i next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
+    lanes.frac_mask = _mm256_set1_epi16(kOne - 1);
+    lanes.one = _mm256_set1_epi16(kOne);
+    lanes.next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
     const std::size_t stride = std::size_t(src.stride);
     RowPlan plan;
 
@@ -284,64 +386,55 @@ __attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uin
         constexpr int H = 8 / C;
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         const int chunks_in_row = dst_width / kChunk;
-        // The chunk's window offsets, for its two halves.
-        alignas(32) int window_lo[C], window_hi[C];
-        __m256i offset_x[C], offset_y[C];
+        const ChunkRange interior = interiorChunks(src, channels, m, steps, y, chunks_in_row);
+        Avx2RowSteps row_steps[C];
         for (int v = 0; v < C; ++v) {
-            window_lo[v] = steps.offset_x[v][0];
-            window_hi[v] = steps.offset_x[v][H * channels];
-            offset_x[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_x[v]));
-            offset_y[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_y[v]));
+            row_steps[v].window_lo = steps.offset_x[v][0];
+            row_steps[v].window_hi = steps.offset_x[v][H * channels];
+            row_steps[v].offset_x = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_x[v]));
+            row_steps[v].offset_y = _mm256_load_si256(reinterpret_cast<const __m256i *>(steps.offset_y[v]));
+            row_steps[v].window = _mm256_blendv_epi8(_mm256_set1_epi16(std::int16_t(row_steps[v].window_lo)),
+                                                     _mm256_set1_epi16(std::int16_t(row_steps[v].window_hi)),
+                                                     lanes.high_mask);
         }
         for (int first = 0; first < chunks_in_row; first += kPlanChunks) {
             const int chunks = std::min(kPlanChunks, chunks_in_row - first);
-            planChunksAvx2(src, channels, m, steps, first * kChunk, chunks, y, plan);
-            for (int c = 0; c < chunks; ++c) {
+            // Exact tests only near the frame's edges, in order (each call may write 3 entries
+            // past its range, which the next overwrites).
+            const int lo = std::clamp(interior.lo - first, 0, chunks), hi = std::clamp(interior.hi - first, lo, chunks);
+            if (lo > 0)
+                planChunksAvx2<false>(src, channels, m, steps, first * kChunk, lo, y, plan, 0);
+            if (hi > lo)
+                planChunksAvx2<true>(src, channels, m, steps, (first + lo) * kChunk, hi - lo, y, plan, lo);
+            if (chunks > hi)
+                planChunksAvx2<false>(src, channels, m, steps, (first + hi) * kChunk, chunks - hi, y, plan, hi);
+            for (int c = 0; c < chunks;) {
+                if (C == 1 && c + 2 <= chunks && (plan.vector_ok[c] & plan.vector_ok[c + 1])) {
+                    // Two chunks' vectors packed into one 32-byte store.
+                    const __m256i a = chunkVectorAvx2<C>(src.data, stride, lanes, row_steps[0], plan.ix0[c],
+                                                         plan.iy0[c], plan.frx[c], plan.fry[c], plan.ky_last[c]);
+                    const __m256i b =
+                        chunkVectorAvx2<C>(src.data, stride, lanes, row_steps[0], plan.ix0[c + 1], plan.iy0[c + 1],
+                                           plan.frx[c + 1], plan.fry[c + 1], plan.ky_last[c + 1]);
+                    _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + (first + c) * kChunk),
+                                        _mm256_permute4x64_epi64(_mm256_packus_epi16(a, b), 0xD8));
+                    c += 2;
+                    continue;
+                }
                 const int x = (first + c) * kChunk;
                 if (!plan.vector_ok[c]) {
                     samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
-                    continue;
-                }
-                const int ix0 = plan.ix0[c], iy0 = plan.iy0[c], frx = plan.frx[c], fry = plan.fry[c];
-                const int ky_min = std::min(0, plan.ky_last[c]), ky_max = std::max(0, plan.ky_last[c]);
-                const std::uint8_t *row = src.data + std::size_t(iy0 + ky_min) * stride;
-                const __m256i frx_v = _mm256_set1_epi16(std::int16_t(frx));
-                const __m256i fry_v = _mm256_set1_epi16(std::int16_t(fry));
-                const __m256i ky_step = _mm256_set1_epi16(std::int16_t(ky_max));
-                for (int v = 0; v < C; ++v) {
-                    const __m256i rel_x = _mm256_add_epi16(frx_v, offset_x[v]);
-                    const __m256i rel_y = _mm256_add_epi16(fry_v, offset_y[v]);
-                    // Each half reads a window that starts at its first pixel's left tap.
-                    const int k0 = (frx + window_lo[v]) >> 10;
-                    const int k1 = (frx + window_hi[v]) >> 10;
-                    const __m256i kx = _mm256_srli_epi16(rel_x, 10);
-                    const __m256i fx = _mm256_and_si256(_mm256_srli_epi16(rel_x, 10 - kFracBits), frac_mask);
-                    const __m256i fy = _mm256_and_si256(_mm256_srai_epi16(rel_y, 10 - kFracBits), frac_mask);
-                    const __m256i window_k = _mm256_add_epi16(
-                        _mm256_set1_epi16(std::int16_t(k0)),
-                        _mm256_and_si256(high_mask, _mm256_set1_epi16(std::int16_t(k1 - k0))));
-                    // Shuffle control: byte of the left tap in the lane's window, right tap one pixel on.
-                    __m256i left = _mm256_sub_epi16(kx, window_k);
-                    if (C == 2)
-                        left = _mm256_add_epi16(left, left);
-                    left = _mm256_add_epi16(left, channel);
-                    const __m256i ctrl = _mm256_add_epi16(left, _mm256_add_epi16(_mm256_slli_epi16(left, 8), next_tap));
-                    const __m256i wx = _mm256_or_si256(_mm256_sub_epi16(one, fx), _mm256_slli_epi16(fx, 8));
-                    const __m256i fy_scaled = _mm256_slli_epi16(fy, 9);
-                    const int byte0 = (ix0 + k0) * channels, byte1 = (ix0 + k1) * channels;
-
-                    __m256i value = interpolateRows(row, row + stride, byte0, byte1, ctrl, wx, fy_scaled);
-                    if (ky_max != ky_min) {
-                        const __m256i lower =
-                            interpolateRows(row + stride, row + 2 * stride, byte0, byte1, ctrl, wx, fy_scaled);
-                        const __m256i ky = _mm256_srai_epi16(rel_y, 10);
-                        value = _mm256_blendv_epi8(value, lower, _mm256_cmpeq_epi16(ky, ky_step));
+                } else {
+                    for (int v = 0; v < C; ++v) {
+                        const __m256i result =
+                            chunkVectorAvx2<C>(src.data, stride, lanes, row_steps[v], plan.ix0[c], plan.iy0[c],
+                                               plan.frx[c], plan.fry[c], plan.ky_last[c]);
+                        const __m256i packed = _mm256_permute4x64_epi64(_mm256_packus_epi16(result, result), 0x08);
+                        _mm_storeu_si128(reinterpret_cast<__m128i *>(out + x * channels + v * 16),
+                                         _mm256_castsi256_si128(packed));
                     }
-                    const __m256i result = _mm256_srli_epi16(_mm256_add_epi16(value, round), kFracBits);
-                    const __m256i packed = _mm256_permute4x64_epi64(_mm256_packus_epi16(result, result), 0x08);
-                    _mm_storeu_si128(reinterpret_cast<__m128i *>(out + x * channels + v * 16),
-                                     _mm256_castsi256_si128(packed));
                 }
+                ++c;
             }
         }
         const int x = chunks_in_row * kChunk;
@@ -386,8 +479,10 @@ inline bool planChunk(const PlaneSpan &src, int channels, const double m[6], con
 // planChunk for chunks [x_begin / 16, + chunks) of row y, without branches (so that the
 // compiler may vectorise it): the same expressions in the same order, so the same
 // positions and decisions. Used by the 128-bit kernel.
+// Inside interiorChunks' range (Interior) only the positions.
+template <bool Interior>
 inline void planChunksPortable(const PlaneSpan &src, int channels, const double m[6], const LaneSteps &steps,
-                               int x_begin, int chunks, int y, RowPlan &plan)
+                               int x_begin, int chunks, int y, RowPlan &plan, int at)
 {
     const double last_x = m[0] * (kChunk - 1), last_y = m[3] * (kChunk - 1);
     const double row_x = m[1] * y, row_y = m[4] * y;
@@ -400,22 +495,23 @@ inline void planChunksPortable(const PlaneSpan &src, int channels, const double 
         const double sx0 = m[0] * x + row_x + m[2];
         const double sy0 = m[3] * x + row_y + m[5];
         const double sx1 = sx0 + last_x, sy1 = sy0 + last_y;
-        const bool inside = (sx0 >= 0.0) & (sx1 >= 0.0) & (sx0 < width1) & (sx1 < width1) & (sy0 >= 0.0) &
-                            (sy1 >= 0.0) & (sy0 < height1) & (sy1 < height1);
+        const bool inside = Interior || ((sx0 >= 0.0) & (sx1 >= 0.0) & (sx0 < width1) & (sx1 < width1) &
+                                         (sy0 >= 0.0) & (sy1 >= 0.0) & (sy0 < height1) & (sy1 < height1));
         // Inside, sx0, sy0 >= 0: truncation is the floor. Outside: any in-range value.
         const double cx = inside ? sx0 : 0.0, cy = inside ? sy0 : 0.0;
         const int ix0 = int(cx), iy0 = int(cy);
         const int frx = int((cx - ix0) * 1024.0), fry = int((cy - iy0) * 1024.0);
         const int ky_last = (fry + last_offset_y) >> 10;
         const int ky_min = std::min(0, ky_last), ky_max = std::max(0, ky_last);
-        const bool refused = ((ix0 + ((frx + last_window) >> 10)) * channels + 16 > row_bytes) |
-                             (ky_max - ky_min > 1) | (iy0 + ky_max + 1 >= src.height) | (iy0 + ky_min < 0);
-        plan.ix0[c] = ix0;
-        plan.iy0[c] = iy0;
-        plan.frx[c] = frx;
-        plan.fry[c] = fry;
-        plan.ky_last[c] = ky_last;
-        plan.vector_ok[c] = inside & !refused ? -1 : 0;
+        const bool refused = !Interior && (((ix0 + ((frx + last_window) >> 10)) * channels + 16 > row_bytes) |
+                                           (ky_max - ky_min > 1) | (iy0 + ky_max + 1 >= src.height) |
+                                           (iy0 + ky_min < 0));
+        plan.ix0[at + c] = ix0;
+        plan.iy0[at + c] = iy0;
+        plan.frx[at + c] = frx;
+        plan.fry[at + c] = fry;
+        plan.ky_last[at + c] = ky_last;
+        plan.vector_ok[at + c] = inside & !refused ? -1 : 0;
     }
 }
 
@@ -528,9 +624,13 @@ UAVSTAB_TARGET_SIMD128 void warpRows128(const PlaneSpan &src, std::uint8_t *dst,
         const LaneSteps &steps = matrices.steps();
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         const int chunks_in_row = dst_width / kChunk;
+        const ChunkRange interior = interiorChunks(src, channels, m, steps, y, chunks_in_row);
         for (int first = 0; first < chunks_in_row; first += kPlanChunks) {
             const int chunks = std::min(kPlanChunks, chunks_in_row - first);
-            planChunksPortable(src, channels, m, steps, first * kChunk, chunks, y, plan);
+            const int lo = std::clamp(interior.lo - first, 0, chunks), hi = std::clamp(interior.hi - first, lo, chunks);
+            planChunksPortable<false>(src, channels, m, steps, first * kChunk, lo, y, plan, 0);
+            planChunksPortable<true>(src, channels, m, steps, (first + lo) * kChunk, hi - lo, y, plan, lo);
+            planChunksPortable<false>(src, channels, m, steps, (first + hi) * kChunk, chunks - hi, y, plan, hi);
             for (int c = 0; c < chunks; ++c) {
                 const int x = (first + c) * kChunk;
                 if (!plan.vector_ok[c]) {

@@ -725,6 +725,47 @@ TEST(WarpKernels, WideRowsWriteTheSameBytesAsTheScalarReference)
     }
 }
 
+TEST(WarpKernels, ChunksAtTheEdgesOfTheFastPathWriteTheSameBytesAsTheScalarReference)
+{
+    // The vector kernels test only the chunks near the frame's edges and take the ones in
+    // between as they are: shifts swept across every edge in steps that are no multiple of
+    // a pixel, so that chunks fall just inside and just outside each test, through every
+    // kernel. The source ends with its last row, so a read past it is out of bounds.
+    std::mt19937 rng(20261204);
+    int compared = 0;
+    for (int channels = 1; channels <= 2; ++channels) {
+        const int w = 300, h = 40, src_stride = w * channels;
+        std::vector<std::uint8_t> src(std::size_t(src_stride) * h);
+        for (auto &b : src)
+            b = std::uint8_t(rng());
+        const PlaneSpan span{src.data(), src_stride, w, h};
+        const std::uint8_t border[4] = {16, 128, 0, 0};
+        for (double turn : {-0.03, 0.0, 0.021})
+            for (double scale : {0.93, 1.0, 1.07})
+                for (double shift_x = -24.0; shift_x <= 24.0; shift_x += 24.0 / 7.0 + 0.013)
+                    for (double shift_y = -2.5; shift_y <= 2.5; shift_y += 0.37) {
+                        const double m[6] = {scale, -scale * turn, shift_x, scale * turn, scale, shift_y};
+                        std::vector<std::uint8_t> reference(src.size(), 0xa5);
+                        ASSERT_TRUE(warpPlaneBilinear(span, reference.data(), src_stride, w, 0, h, channels, m, false,
+                                                      border, WarpKernel::Scalar));
+                        for (WarpKernel kernel : kWarpKernels) {
+                            if (kernel == WarpKernel::Scalar || !warpKernelAvailable(kernel))
+                                continue;
+                            std::vector<std::uint8_t> out(src.size(), 0xa5);
+                            ASSERT_TRUE(warpPlaneBilinear(span, out.data(), src_stride, w, 0, h, channels, m, false,
+                                                          border, kernel));
+                            const auto diff = std::mismatch(out.begin(), out.end(), reference.begin());
+                            ASSERT_TRUE(diff.first == out.end())
+                                << warpKernelName(kernel) << " differs at byte " << (diff.first - out.begin())
+                                << " (channels " << channels << ", turn " << turn << ", scale " << scale
+                                << ", shift " << shift_x << ", " << shift_y << ")";
+                            ++compared;
+                        }
+                    }
+    }
+    std::printf("%d edge sweeps identical to scalar\n", compared);
+}
+
 TEST(WarpKernels, FourChannelRowsWiderThanAColumnBlockWriteOpenCvsBytes)
 {
     // Rows of more than 2048 pixels (the AVX2 4-channel kernel rounds its column steps in
