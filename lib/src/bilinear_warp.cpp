@@ -266,6 +266,7 @@ __attribute__((target("avx2"))) inline void planChunksAvx2(const PlaneSpan &src,
     const __m256d zero = _mm256_setzero_pd();
     const __m256d width1 = _mm256_set1_pd(double(src.width - 1)), height1 = _mm256_set1_pd(double(src.height - 1));
     const __m256d k1024 = _mm256_set1_pd(1024.0);
+    const __m128i fraction = _mm_set1_epi32(1023);
     const __m128i last_window = _mm_set1_epi32(steps.offset_x[steps.vectors - 1][steps.half_pixels * channels]);
     const __m128i last_offset_y = _mm_set1_epi32(steps.offset_y[steps.vectors - 1][15]);
     const __m128i row_bytes = _mm_set1_epi32(src.width * channels - 16);
@@ -275,10 +276,13 @@ __attribute__((target("avx2"))) inline void planChunksAvx2(const PlaneSpan &src,
         const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(0, 16, 32, 48)));
         const __m256d sx0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m0, xs), row_x), m2);
         const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), row_y), m5);
-        // Inside, sx0, sy0 >= 0: truncation is the floor. Lanes outside hold anything.
-        const __m128i ix0 = _mm256_cvttpd_epi32(sx0), iy0 = _mm256_cvttpd_epi32(sy0);
-        const __m128i frx = _mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(sx0, _mm256_cvtepi32_pd(ix0)), k1024));
-        const __m128i fry = _mm256_cvttpd_epi32(_mm256_mul_pd(_mm256_sub_pd(sy0, _mm256_cvtepi32_pd(iy0)), k1024));
+        // Inside, sx0, sy0 >= 0: truncation is the floor, and the position in 1/1024 px
+        // (s * 1024 is exact) splits into planChunk's integer part and fraction. Lanes
+        // outside hold anything.
+        const __m128i qx = _mm256_cvttpd_epi32(_mm256_mul_pd(sx0, k1024));
+        const __m128i qy = _mm256_cvttpd_epi32(_mm256_mul_pd(sy0, k1024));
+        const __m128i ix0 = _mm_srai_epi32(qx, 10), iy0 = _mm_srai_epi32(qy, 10);
+        const __m128i frx = _mm_and_si128(qx, fraction), fry = _mm_and_si128(qy, fraction);
         const __m128i ky_last = _mm_srai_epi32(_mm_add_epi32(fry, last_offset_y), 10);
         _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ix0 + at + c), ix0);
         _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.iy0 + at + c), iy0);
@@ -497,10 +501,12 @@ inline void planChunksPortable(const PlaneSpan &src, int channels, const double 
         const double sx1 = sx0 + last_x, sy1 = sy0 + last_y;
         const bool inside = Interior || ((sx0 >= 0.0) & (sx1 >= 0.0) & (sx0 < width1) & (sx1 < width1) &
                                          (sy0 >= 0.0) & (sy1 >= 0.0) & (sy0 < height1) & (sy1 < height1));
-        // Inside, sx0, sy0 >= 0: truncation is the floor. Outside: any in-range value.
+        // Inside, sx0, sy0 >= 0: truncation is the floor, and the position in 1/1024 px
+        // (exact) splits into planChunk's integer part and fraction. Outside: any value.
         const double cx = inside ? sx0 : 0.0, cy = inside ? sy0 : 0.0;
-        const int ix0 = int(cx), iy0 = int(cy);
-        const int frx = int((cx - ix0) * 1024.0), fry = int((cy - iy0) * 1024.0);
+        const int qx = int(cx * 1024.0), qy = int(cy * 1024.0);
+        const int ix0 = qx >> 10, iy0 = qy >> 10;
+        const int frx = qx & 1023, fry = qy & 1023;
         const int ky_last = (fry + last_offset_y) >> 10;
         const int ky_min = std::min(0, ky_last), ky_max = std::max(0, ky_last);
         const bool refused = !Interior && (((ix0 + ((frx + last_window) >> 10)) * channels + 16 > row_bytes) |
