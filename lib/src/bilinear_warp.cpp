@@ -429,14 +429,18 @@ __attribute__((target("avx2"))) void warpRowsAvx2(const PlaneSpan &src, std::uin
                 if (!plan.vector_ok[c]) {
                     samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
                 } else {
-                    for (int v = 0; v < C; ++v) {
-                        const __m256i result =
-                            chunkVectorAvx2<C>(src.data, stride, lanes, row_steps[v], plan.ix0[c], plan.iy0[c],
-                                               plan.frx[c], plan.fry[c], plan.ky_last[c]);
-                        const __m256i packed = _mm256_permute4x64_epi64(_mm256_packus_epi16(result, result), 0x08);
-                        _mm_storeu_si128(reinterpret_cast<__m128i *>(out + x * channels + v * 16),
+                    __m256i vectors[C];
+                    for (int v = 0; v < C; ++v)
+                        vectors[v] = chunkVectorAvx2<C>(src.data, stride, lanes, row_steps[v], plan.ix0[c],
+                                                        plan.iy0[c], plan.frx[c], plan.fry[c], plan.ky_last[c]);
+                    // Two channels: the chunk's two vectors in one 32-byte store.
+                    const __m256i packed =
+                        _mm256_permute4x64_epi64(_mm256_packus_epi16(vectors[0], vectors[C - 1]), 0xD8);
+                    if (C == 2)
+                        _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + x * channels), packed);
+                    else
+                        _mm_storeu_si128(reinterpret_cast<__m128i *>(out + x * channels),
                                          _mm256_castsi256_si128(packed));
-                    }
                 }
                 ++c;
             }
