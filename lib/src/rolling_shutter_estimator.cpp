@@ -76,6 +76,15 @@ Point2 offsetAt(const std::vector<double> &o, const Bands &bands, double half_wi
     return {v[0] - turn * (p.y - centre), v[1] + turn * p.x};
 }
 
+// The bands' shifts, RMS over bands (px): how far the rows bend.
+double bendRms(const std::vector<double> &o, int band_count)
+{
+    double sum2 = 0.0;
+    for (int b = 0; b < band_count; ++b)
+        sum2 += std::pow(o[std::size_t(b * kUnknownsPerBand)], 2) + std::pow(o[std::size_t(b * kUnknownsPerBand + 1)], 2);
+    return std::sqrt(sum2 / band_count);
+}
+
 } // namespace
 
 Similarity RowMotion::at(double y) const
@@ -274,10 +283,7 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     // (the AR.Drone clip: 11 px of bend reported without it, ITF 0.29 dB below off; a
     // vibration beating at 0.8 Hz with 30 fps frames reaches 6 times).
     {
-        double sum2 = 0.0;
-        for (int b = 0; b < band_count; ++b)
-            sum2 += std::pow(offsets[std::size_t(b * 3)], 2) + std::pow(offsets[std::size_t(b * 3 + 1)], 2);
-        const double bend = std::sqrt(sum2 / band_count), limit = kMaxBendPerChange * level_ * px640;
+        const double bend = bendRms(offsets, band_count), limit = kMaxBendPerChange * level_ * px640;
         if (bend > limit && bend > 0.0) {
             for (double &v : offsets)
                 v *= limit / bend;
@@ -315,14 +321,12 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     for (double v : applied)
         any = any || std::abs(v) > 1e-6;
     if (any) {
-        double sum2 = 0.0;
         for (int b = 0; b < band_count; ++b) {
-            const double x = applied[std::size_t(b * 3)], y = applied[std::size_t(b * 3 + 1)];
             result.rows.push_back(bands.centre(b));
-            result.offsets.push_back(offsetTransform(x, y, applied[std::size_t(b * 3 + 2)], half_width, bands.centre(b)));
-            sum2 += x * x + y * y;
+            result.offsets.push_back(offsetTransform(applied[std::size_t(b * 3)], applied[std::size_t(b * 3 + 1)],
+                                                     applied[std::size_t(b * 3 + 2)], half_width, bands.centre(b)));
         }
-        result.wobble = std::sqrt(sum2 / band_count);
+        result.wobble = bendRms(applied, band_count);
     }
     return result;
 }
