@@ -328,8 +328,9 @@ struct Avx2RowSteps {
     __m256i window;  // window_lo in the low half's lanes, window_hi in the high half's
 };
 
-// One vector (16 lanes of 16-bit values, x64) of the chunk whose plan is (ix0, iy0, frx,
-// fry, ky_last): rows `row` and below, the chunk's source window read at two offsets.
+// One vector of a chunk (16 lanes: its output bytes, not yet packed) from the chunk's plan
+// (planChunk's ix0, iy0, frx, fry and the last pixel's row step ky_last): each 128-bit half
+// reads one 16-byte window per source row it crosses, and a byte shuffle picks the taps.
 template <int C>
 __attribute__((target("avx2"))) inline __m256i chunkVectorAvx2(const std::uint8_t *src_data, std::size_t stride,
                                                                const Avx2Lanes &lanes, const Avx2RowSteps &steps,
