@@ -112,7 +112,7 @@ std::vector<ConfigParam> makeTable()
         param<&C::analysis_width>("analysis_width", "Analysis width",
                                   "Motion is estimated on luma downscaled to this width (full size when smaller)", 16,
                                   16384),
-        param<&C::threads>("threads", "Threads", "Warp worker threads (0 = one per core)", 0, 64, kParamAtStartOnly),
+        param<&C::threads>("threads", "Threads", "Worker threads that plan and warp, and lend a hand to the motion estimation when idle (0 = one per core)", 0, 64, kParamAtStartOnly),
         flag<&C::bypass>("bypass", "Bypass",
                          "Pass frames through untouched, with the same delay (toggling never reorders frames)"),
         flag<&C::debug_overlay>("debug_overlay", "Debug overlay",

@@ -24,6 +24,8 @@ constexpr float kMaxPatchError = 40.f;
 // it (1 in this many) beyond which all are tracked again (see FeatureTracker::Impl::match).
 constexpr int kShallowLevels = 1;
 constexpr std::size_t kMaxShallowFailures = 4;
+// Tracks per chunk of shared tracking work (at most 50 tracks by default: 13 chunks).
+constexpr std::size_t kChunkTracks = 4;
 
 // Window and pyramid depth that fit the analysis image (tiny frames get small windows).
 struct LkGeometry {
@@ -50,14 +52,20 @@ struct FeatureTracker::Impl {
     LucasKanadePyramid previous_pyramid, current_pyramid;
     std::vector<cv::Point2f> tracks;  // positions in the previous frame, analysis pixels
     std::vector<cv::Point2f> forward;
-    std::vector<std::size_t> kept;           // tracks that passed the forward checks
-    std::vector<cv::Point2f> kept_forward, kept_backward;  // where they went, and back
     std::vector<std::uint8_t> ok;            // tracks that passed the forward-backward checks
     std::vector<std::size_t> retry;          // tracks tracked again through the whole pyramid
     std::vector<cv::Point2f> retry_tracks, retry_forward;
     std::vector<std::uint8_t> retry_ok;
-    std::vector<uchar> status_forward, status_backward;
-    std::vector<float> errors_forward;
+    // trackBoth's scratch, one per lane of shared work.
+    struct Scratch {
+        std::vector<cv::Point2f> from, to;  // a chunk's points, and where they went
+        std::vector<std::size_t> kept;      // those that passed the forward checks
+        std::vector<cv::Point2f> kept_forward, kept_backward;  // where they went, and back
+        std::vector<uchar> status_forward, status_backward;
+        std::vector<float> errors_forward;
+    };
+    Scratch scratch[kShareWorkLanes];
+    ShareWork share;
     int track_age = 0;
     bool has_previous = false;
     int frame_width = 0, frame_height = 0;
@@ -68,8 +76,13 @@ struct FeatureTracker::Impl {
     // LK from the previous pyramid into the current one and back, on `levels` levels above
     // the finest: `to` where each point went, `passed` set where the forward checks
     // (status, patch error, inside the image) and the forward-backward distance held.
+    // Chunks of the points may be tracked at once on another thread (`share`): each point
+    // is tracked on its own, so the results are the same.
     void trackBoth(const std::vector<cv::Point2f> &from, std::vector<cv::Point2f> &to,
                    std::vector<std::uint8_t> &passed, int levels);
+    // trackBoth for points [begin, end).
+    void trackChunk(const std::vector<cv::Point2f> &from, std::size_t begin, std::size_t end,
+                    std::vector<cv::Point2f> &to, std::vector<std::uint8_t> &passed, int levels, Scratch &scratch);
     // Tracks `tracks` from the previous pyramid into the current one (re-detecting first
     // when due or when `redetect`), forward-backward checked and outside excluded regions.
     PointMatches match(bool redetect);
@@ -193,32 +206,49 @@ Point2 FeatureTracker::Impl::toFrame(cv::Point2f p) const
 void FeatureTracker::Impl::trackBoth(const std::vector<cv::Point2f> &from, std::vector<cv::Point2f> &to,
                                      std::vector<std::uint8_t> &passed, int levels)
 {
+    const std::size_t n = from.size();
+    to.resize(n);
+    passed.assign(n, 0);
+    const int chunks = int((n + kChunkTracks - 1) / kChunkTracks);
+    runShared(share, chunks, [&](int chunk, int lane) {
+        const std::size_t begin = std::size_t(chunk) * kChunkTracks;
+        trackChunk(from, begin, std::min(n, begin + kChunkTracks), to, passed, levels, scratch[lane]);
+    });
+}
+
+void FeatureTracker::Impl::trackChunk(const std::vector<cv::Point2f> &from_all, std::size_t begin, std::size_t end,
+                                      std::vector<cv::Point2f> &to_all, std::vector<std::uint8_t> &passed,
+                                      int levels, Scratch &s)
+{
     LucasKanadeParams params;
     params.window = lk.window;
     params.max_level = levels;
-    trackLucasKanade(previous_pyramid, current_pyramid, from, to, status_forward, &errors_forward, params);
+    s.from.assign(from_all.begin() + std::ptrdiff_t(begin), from_all.begin() + std::ptrdiff_t(end));
+    const std::vector<cv::Point2f> &from = s.from;
+    std::vector<cv::Point2f> &to = s.to;
+    trackLucasKanade(previous_pyramid, current_pyramid, from, to, s.status_forward, &s.errors_forward, params);
+    std::copy(to.begin(), to.end(), to_all.begin() + std::ptrdiff_t(begin));
     // Only tracks that passed the forward checks go back: the rest are dropped anyway.
     const cv::Rect2f inside(0.f, 0.f, float(analysis.width - 1), float(analysis.height - 1));
-    kept.clear();
-    kept_forward.clear();
+    s.kept.clear();
+    s.kept_forward.clear();
     for (std::size_t i = 0; i < from.size(); ++i) {
-        if (status_forward[i] && !(errors_forward[i] > kMaxPatchError) && inside.contains(to[i])) {
-            kept.push_back(i);
-            kept_forward.push_back(to[i]);
+        if (s.status_forward[i] && !(s.errors_forward[i] > kMaxPatchError) && inside.contains(to[i])) {
+            s.kept.push_back(i);
+            s.kept_forward.push_back(to[i]);
         }
     }
-    passed.assign(from.size(), 0);
-    if (kept.empty())
+    if (s.kept.empty())
         return;
     // No patch error for the way back: only the forward one is checked, and the tracker
     // skips a window resampling per point when it is not asked for.
-    trackLucasKanade(current_pyramid, previous_pyramid, kept_forward, kept_backward, status_backward, nullptr,
+    trackLucasKanade(current_pyramid, previous_pyramid, s.kept_forward, s.kept_backward, s.status_backward, nullptr,
                      params);
     const float limit2 = float(config.fb_threshold * config.fb_threshold);
-    for (std::size_t k = 0; k < kept.size(); ++k) {
-        const std::size_t i = kept[k];
-        const cv::Point2f e = kept_backward[k] - from[i];
-        passed[i] = status_backward[k] && e.dot(e) <= limit2;
+    for (std::size_t k = 0; k < s.kept.size(); ++k) {
+        const std::size_t i = s.kept[k];
+        const cv::Point2f e = s.kept_backward[k] - from[i];
+        passed[begin + i] = s.status_backward[k] && e.dot(e) <= limit2;
     }
 }
 
@@ -311,6 +341,12 @@ PointMatches FeatureTracker::track(const FrameView &frame)
     d.has_previous = true;
     std::swap(d.previous_pyramid, d.current_pyramid);
     return matches;
+}
+
+void FeatureTracker::setShareWork(ShareWork share)
+{
+    impl_->luma.setShareWork(share);
+    impl_->share = std::move(share);
 }
 
 PointMatches FeatureTracker::retrack()

@@ -17,6 +17,9 @@ namespace uavstab {
 
 namespace {
 
+// Output rows of a downscale by 3 per shared chunk (360 at 1080p and 4K: 12 chunks).
+constexpr int kChunkRows = 30;
+
 // round(sum / 9) for sums of nine 8-bit samples (at most 2295): (sum + 4) * 7282 >> 16 is
 // exactly (sum + 4) / 9 over that range, so the vector and scalar paths agree.
 inline std::uint8_t average9(unsigned sum)
@@ -244,7 +247,15 @@ void LumaExtractor::downscale(const cv::Mat &src, cv::Mat &dst, cv::Size size)
             cv::resize(*level, halvings_[k], cv::Size(level->cols / 2, level->rows / 2), 0, 0, cv::INTER_AREA);
             level = &halvings_[k++];
         }
-        boxDownscale3(*level, dst, row_sums_);
+        // Bands of rows from their own source rows into their own output rows: the same
+        // bytes whoever runs them.
+        const int rows = level->rows / 3;
+        dst.create(rows, level->cols / 3, level->type());
+        runShared(share_, (rows + kChunkRows - 1) / kChunkRows, [&](int chunk, int lane) {
+            const int begin = chunk * kChunkRows, end = std::min(rows, begin + kChunkRows);
+            cv::Mat out = dst.rowRange(begin, end);
+            boxDownscale3(level->rowRange(3 * begin, 3 * end), out, row_sums_[lane]);
+        });
         return;
     }
     while (level->cols / 2 >= size.width && level->rows / 2 >= size.height) {

@@ -11,6 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include "uavstab/frame_view.hpp"
+#include "uavstab/share_work.hpp"
 
 namespace uavstab {
 
@@ -77,6 +78,9 @@ public:
     // 16-bit frames go through the automatic gain (which this call advances).
     const cv::Mat &extract(const FrameView &frame, int analysis_width);
 
+    // Where a downscale by 3 may share its rows (unset: all on the caller's thread).
+    void setShareWork(ShareWork share) { share_ = std::move(share); }
+
     // Starts the automatic gain afresh (a new stream, a seek, a scene cut).
     void reset() { gain_.reset(); }
     const AutoGain &gain() const { return gain_; }
@@ -91,7 +95,8 @@ private:
     cv::Mat packed_small_;
     cv::Mat swapped_;       // 16-bit big-endian frames in host byte order
     cv::Mat luma16_;        // 16-bit analysis image before the gain
-    std::vector<std::uint16_t> row_sums_;  // boxDownscale3's scratch
+    std::vector<std::uint16_t> row_sums_[kShareWorkLanes];  // boxDownscale3's scratch, per lane
+    ShareWork share_;
     AutoGain gain_;
 };
 

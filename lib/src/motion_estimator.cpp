@@ -74,6 +74,11 @@ RollingShutterEstimator::Settings MotionEstimator::rollingShutterSettings() cons
     return s;
 }
 
+void MotionEstimator::setShareWork(ShareWork share)
+{
+    tracker_.setShareWork(std::move(share));
+}
+
 void MotionEstimator::setFrameInterval(double milliseconds)
 {
     const double interval = milliseconds > 0.0 && std::isfinite(milliseconds) ? milliseconds : 0.0;

@@ -60,6 +60,11 @@ Stabilizer::Stabilizer(const StabilizerConfig &config)
     config_.validate();
     frame_config_ = std::make_shared<const StabilizerConfig>(config_);
     pool_ = std::make_unique<WorkerPool>(config_.resolvedThreads());
+    // A worker with nothing queued (no warp) joins in the estimation's downscale and
+    // tracking: the same results, sooner.
+    estimator_.setShareWork([this](int chunks, const std::function<void(int, int)> &work) {
+        pool_->share(chunks, work);
+    });
 }
 
 Stabilizer::~Stabilizer()

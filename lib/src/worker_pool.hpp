@@ -20,6 +20,11 @@ public:
     WorkerPool &operator=(const WorkerPool &) = delete;
 
     void submit(std::function<void()> task);
+    // Runs work(chunk, lane) for every chunk in [0, chunks): the caller (lane 0) and, if
+    // one is free before the caller is done, a worker (lane 1) take chunks in turn.
+    // Returns when every chunk is done, rethrowing the first exception. Never waits
+    // behind queued tasks: a worker busy with them simply does not join in.
+    void share(int chunks, const std::function<void(int chunk, int lane)> &work);
     // Returns once no task is queued or running: tasks submitted by running tasks are
     // waited for too, since they are queued before their submitter finishes.
     void waitIdle();

@@ -9,6 +9,7 @@
 
 #include "uavstab/config.hpp"
 #include "uavstab/frame_view.hpp"
+#include "uavstab/share_work.hpp"
 #include "uavstab/similarity.hpp"
 
 namespace uavstab {
@@ -45,6 +46,9 @@ public:
     // detected afresh there (outside the excluded regions as they are now): for when most
     // of the last result's tracks turned out to sit on a screen-fixed overlay.
     PointMatches retrack();
+    // Where the luma's downscale and the tracking may share their work (unset, the
+    // default: all of it on the caller's thread).
+    void setShareWork(ShareWork share);
 
 private:
     struct Impl;

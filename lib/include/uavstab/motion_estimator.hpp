@@ -52,6 +52,8 @@ public:
     void setConfig(const StabilizerConfig &config);
     // The time between frames in ms (0: unknown), for a known sensor readout time.
     void setFrameInterval(double milliseconds);
+    // See FeatureTracker::setShareWork.
+    void setShareWork(ShareWork share);
 
 private:
     RollingShutterEstimator::Settings rollingShutterSettings() const;
