@@ -231,6 +231,8 @@ inline ChunkRange interiorChunks(const PlaneSpan &src, int channels, const doubl
     return {int(c_lo), int(c_hi)};
 }
 
+#ifdef UAVSTAB_HAVE_X86
+
 // Asks for the source lines an output row two rows further down will read: one per 64
 // bytes of this row's planned chunks, kPrefetchRows below where each chunk reads now. A
 // rotated frame reads its source along a slant, a few dozen bytes of each row at a time,
@@ -250,8 +252,6 @@ inline void prefetchBelow(const PlaneSpan &src, int channels, const RowPlan &pla
                                std::size_t(plan.ix0[c]) * std::size_t(channels));
         }
 }
-
-#ifdef UAVSTAB_HAVE_X86
 
 __attribute__((target("avx2"))) inline __m256i load2(const std::uint8_t *lo, const std::uint8_t *hi)
 {

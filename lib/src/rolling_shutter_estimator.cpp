@@ -270,7 +270,6 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
             offsets[std::size_t(c * 3 + 2)] -= mid_turn;
         }
     }
-    offsets_ = offsets;
 
     // How much to apply: all of it when the readout is known or the mode is forced, else
     // in proportion to how far the bands' residual motion stands above the threshold.
@@ -287,9 +286,9 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
         if (bend > limit && bend > 0.0) {
             for (double &v : offsets)
                 v *= limit / bend;
-            offsets_ = offsets;
         }
     }
+    offsets_ = offsets;
     double gain = 1.0;
     if (automatic)
         gain = std::clamp((level_ - settings_.threshold) / std::max(1e-9, kRamp * settings_.threshold), 0.0, 1.0);
