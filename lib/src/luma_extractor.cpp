@@ -29,50 +29,52 @@ inline std::uint8_t average9(unsigned sum)
 
 #ifdef UAVSTAB_HAVE_X86
 
-// average9 of sums s[i] + s[i + 1] + s[i + 2], i = 0..15.
-__attribute__((target("avx2"))) inline __m256i averageOfThrees(const std::uint16_t *s)
+// The sums of the 3-pixel runs of one row for 16 outputs: lane L (outputs 8L .. 8L + 7)
+// reads bytes 24L .. 24L + 23 of `r` as two overlapping 16-byte halves (q0 = bytes 0..15,
+// q1 = 8..23 of the lane's). The first two pixels of each run are paired and added by
+// maddubs, the third is zero-extended to 16 bits by its own shuffle.
+__attribute__((target("avx2"))) inline __m256i runSumsAvx2(const std::uint8_t *r)
 {
-    const __m256i h = _mm256_add_epi16(_mm256_add_epi16(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(s)),
-                                                        _mm256_loadu_si256(reinterpret_cast<const __m256i *>(s + 1))),
-                                       _mm256_loadu_si256(reinterpret_cast<const __m256i *>(s + 2)));
-    return _mm256_mulhi_epu16(_mm256_add_epi16(h, _mm256_set1_epi16(4)), _mm256_set1_epi16(7282));
+    const __m256i q0 = _mm256_loadu2_m128i(reinterpret_cast<const __m128i *>(r + 24),
+                                           reinterpret_cast<const __m128i *>(r));
+    const __m256i q1 = _mm256_loadu2_m128i(reinterpret_cast<const __m128i *>(r + 32),
+                                           reinterpret_cast<const __m128i *>(r + 8));
+    // Runs 0-4 of the lane lie in q0 (bytes 3j, 3j + 1, 3j + 2), runs 5-7 in q1 (8 bytes on).
+    const __m256i pair0 = _mm256_setr_epi8(0, 1, 3, 4, 6, 7, 9, 10, 12, 13, -1, -1, -1, -1, -1, -1,  //
+                                           0, 1, 3, 4, 6, 7, 9, 10, 12, 13, -1, -1, -1, -1, -1, -1);
+    const __m256i pair1 = _mm256_setr_epi8(-1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 7, 8, 10, 11, 13, 14,  //
+                                           -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 7, 8, 10, 11, 13, 14);
+    const __m256i third0 = _mm256_setr_epi8(2, -1, 5, -1, 8, -1, 11, -1, 14, -1, -1, -1, -1, -1, -1, -1,  //
+                                            2, -1, 5, -1, 8, -1, 11, -1, 14, -1, -1, -1, -1, -1, -1, -1);
+    const __m256i third1 = _mm256_setr_epi8(-1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 9, -1, 12, -1, 15, -1,  //
+                                            -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 9, -1, 12, -1, 15, -1);
+    const __m256i pairs = _mm256_or_si256(_mm256_shuffle_epi8(q0, pair0), _mm256_shuffle_epi8(q1, pair1));
+    const __m256i thirds = _mm256_or_si256(_mm256_shuffle_epi8(q0, third0), _mm256_shuffle_epi8(q1, third1));
+    return _mm256_add_epi16(_mm256_maddubs_epi16(pairs, _mm256_set1_epi8(1)), thirds);
 }
 
-// One output row of a 1-channel image, 16 pixels at a time (returns how many it wrote):
-// the three source rows summed into `sums`, then each run of three sums added for every
-// position (h[i] = sums[i] + sums[i + 1] + sums[i + 2]), averaged, and every third kept:
-// h[0], h[3] ... h[45] of 48 come from the four 128-bit halves of two packed vectors.
+// One output row of a 1-channel image, 16 pixels at a time (returns how many it wrote): the
+// run sums of the three source rows added (at most 2295), averaged, packed. Reads bytes
+// up to 3 * o + 47 of each row for the last group: within the 3 * out_n bytes summed.
+// `next` (bytes from r0 to the next output row's first source row, 0 for none): those
+// three rows are asked for ahead, as the hardware prefetchers do not fetch them in time: a
+// 1080p luma plane fresh from memory took 170-180 us without this, 76-92 us with it (in
+// cache: 69 -> 61 us).
 __attribute__((target("avx2"))) int boxRowAvx2(const std::uint8_t *r0, const std::uint8_t *r1, const std::uint8_t *r2,
-                                               std::uint16_t *sums, int n, std::uint8_t *out, int out_n)
+                                               std::uint8_t *out, int out_n, std::ptrdiff_t next)
 {
-    int i = 0;
-    for (; i + 16 <= n; i += 16) {
-        const __m256i a = _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i *>(r0 + i)));
-        const __m256i b = _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i *>(r1 + i)));
-        const __m256i c = _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i *>(r2 + i)));
-        _mm256_storeu_si256(reinterpret_cast<__m256i *>(sums + i), _mm256_add_epi16(_mm256_add_epi16(a, b), c));
-    }
-    for (; i < n; ++i)
-        sums[i] = std::uint16_t(r0[i] + r1[i] + r2[i]);
-    // Halves of packus(h0..15, h16..31): [h0..7, h16..23] and [h8..15, h24..31]; of
-    // packus(h32..47, itself): [h32..39, ...] and [h40..47, ...]. 0x80: none.
-    const __m128i pick_a = _mm_setr_epi8(0, 3, 6, -128, -128, -128, 10, 13, -128, -128, -128, -128, -128, -128, -128, -128);
-    const __m128i pick_b = _mm_setr_epi8(-128, -128, -128, 1, 4, 7, -128, -128, 8, 11, 14, -128, -128, -128, -128, -128);
-    const __m128i pick_c = _mm_setr_epi8(-128, -128, -128, -128, -128, -128, -128, -128, -128, -128, -128, 1, 4, 7, -128, -128);
-    const __m128i pick_d = _mm_setr_epi8(-128, -128, -128, -128, -128, -128, -128, -128, -128, -128, -128, -128, -128, -128, 2, 5);
     int o = 0;
-    // The last group reads sums up to 3 * o + 49: within the row's sums plus the 32 spare.
     for (; o + 16 <= out_n; o += 16) {
-        const std::uint16_t *s = sums + 3 * o;
-        const __m256i p1 = _mm256_packus_epi16(averageOfThrees(s), averageOfThrees(s + 16));
-        const __m256i a2 = averageOfThrees(s + 32);
-        const __m256i p2 = _mm256_packus_epi16(a2, a2);
-        const __m128i v = _mm_or_si128(
-            _mm_or_si128(_mm_shuffle_epi8(_mm256_castsi256_si128(p1), pick_a),
-                         _mm_shuffle_epi8(_mm256_extracti128_si256(p1, 1), pick_b)),
-            _mm_or_si128(_mm_shuffle_epi8(_mm256_castsi256_si128(p2), pick_c),
-                         _mm_shuffle_epi8(_mm256_extracti128_si256(p2, 1), pick_d)));
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(out + o), v);
+        if (next != 0 && o % 64 == 0)  // the 192 bytes of each row that 64 outputs read
+            for (const std::uint8_t *row : {r0, r1, r2})
+                for (int line = 0; line < 3; ++line)
+                    _mm_prefetch(reinterpret_cast<const char *>(row + next + 3 * o + 64 * line), _MM_HINT_T0);
+        const __m256i sum = _mm256_add_epi16(_mm256_add_epi16(runSumsAvx2(r0 + 3 * o), runSumsAvx2(r1 + 3 * o)),
+                                             runSumsAvx2(r2 + 3 * o));
+        const __m256i mean = _mm256_mulhi_epu16(_mm256_add_epi16(sum, _mm256_set1_epi16(4)), _mm256_set1_epi16(7282));
+        // packus: [outputs 0-7 twice | 8-15 twice]; keep the first 64 bits of each lane.
+        const __m256i packed = _mm256_permute4x64_epi64(_mm256_packus_epi16(mean, mean), 0x08);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(out + o), _mm256_castsi256_si128(packed));
     }
     return o;
 }
@@ -97,9 +99,10 @@ void boxDownscale3(const cv::Mat &src, cv::Mat &dst, std::vector<std::uint16_t> 
         std::uint8_t *out = dst.ptr<std::uint8_t>(y);
 #ifdef UAVSTAB_HAVE_X86
         if (channels == 1 && cpuHasAvx2()) {
-            int o = boxRowAvx2(r0, r1, r2, sums, n, out, out_n);
-            for (; o < out_n; ++o)
-                out[o] = average9(unsigned(sums[3 * o]) + sums[3 * o + 1] + sums[3 * o + 2]);
+            const std::ptrdiff_t next = y + 1 < height ? 3 * std::ptrdiff_t(src.step[0]) : 0;
+            for (int o = boxRowAvx2(r0, r1, r2, out, out_n, next); o < out_n; ++o)
+                out[o] = average9(unsigned(r0[3 * o]) + r0[3 * o + 1] + r0[3 * o + 2] + r1[3 * o] + r1[3 * o + 1] +
+                                  r1[3 * o + 2] + r2[3 * o] + r2[3 * o + 1] + r2[3 * o + 2]);
             continue;
         }
 #endif
