@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "corner_detector.hpp"
 #include "lucas_kanade.hpp"
 #include "luma_extractor.hpp"
 
@@ -169,8 +170,8 @@ void FeatureTracker::Impl::detect(const LucasKanadePyramid &pyramid)
         if (cv::countNonZero(mask) == 0)
             return;
     }
-    cv::goodFeaturesToTrack(image(region), tracks, config.max_corners, kQualityLevel,
-                            std::clamp(spacing, 2.0, 30.0), mask);
+    detectGoodCorners(image(region), tracks, config.max_corners, kQualityLevel, std::clamp(spacing, 2.0, 30.0),
+                      mask);
     const float scale = float(1 << level), offset = 0.5f * (scale - 1.0f);  // level pixel -> level 0
     for (auto &p : tracks) {
         p.x = (p.x + float(region.x)) * scale + offset;
