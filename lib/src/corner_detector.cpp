@@ -123,16 +123,15 @@ void detectGoodCorners(const cv::Mat &image, std::vector<cv::Point2f> &corners, 
         scanStrip(eig, left, begin, end, image.cols, mask, max_allowed, any_allowed, candidates);
     });
     if (!any_allowed)
-        return;
-    const double max_value = max_allowed;
-    if (max_value < 0) {
-        // A negative threshold (every eigenvalue rounded below zero): not worth a path of
-        // its own.
+        return;  // OpenCV's threshold is then 0, and no candidate is under the mask
+    if (max_allowed < 0) {
+        // A negative threshold (every eigenvalue under the mask rounded below zero): rare
+        // enough to leave to OpenCV.
         cv::goodFeaturesToTrack(image, corners, max_corners, quality_level, min_distance, mask);
         return;
     }
     // cv::threshold compares in float.
-    const float threshold = float(max_value * quality_level);
+    const float threshold = float(max_allowed * quality_level);
     candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
                                     [threshold](const Candidate &c) { return !(c.value > threshold); }),
                      candidates.end());

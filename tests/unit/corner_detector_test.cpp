@@ -159,6 +159,8 @@ TEST(CornerDetector, FlatAndTinyImagesGiveWhatOpenCvGives)
     expectSameCorners(noise({3, 3}, 1, 1), 50, 0.01, 2.0);
     expectSameCorners(noise({5, 80}, 2, 1), 50, 0.01, 2.0);
     expectSameCorners(noise({80, 5}, 3, 1), 50, 0.01, 2.0);
+    const cv::Mat textured = noise({300, 200}, 4, 3);
+    expectSameCorners(textured, 50, 0.01, 5.0, cv::Mat(textured.size(), CV_8UC1, cv::Scalar(0)));  // all masked
     std::vector<cv::Point2f> corners{{1.f, 2.f}};
     detectGoodCorners(cv::Mat(), corners, 50, 0.01, 2.0);
     EXPECT_TRUE(corners.empty());
