@@ -8,15 +8,6 @@
 
 namespace uavstab {
 
-namespace {
-
-// Columns of eigenvalues kept per call of cornerMinEigenVal: its scratch (derivatives,
-// their products and the eigenvalues, 24 bytes a pixel) is then a strip of 72 columns, not
-// the image. Narrower strips cost more calls (about 30 us each at the detection's sizes).
-constexpr int kStripColumns = 64;
-
-} // namespace
-
 // Why the strips give the same bits as one call on the whole image:
 // - the derivatives (Sobel) of a strip that is a region of the image read the pixels
 //   around it, as on the whole image, and each is a fixed sum of its neighbours;
@@ -56,6 +47,11 @@ void forEachEigenvalueStrip(const cv::Mat &image, int strip_columns, const Eigen
 
 namespace {
 
+// Columns of eigenvalues kept per call of cornerMinEigenVal: its scratch (derivatives,
+// their products and the eigenvalues, 24 bytes a pixel) is then a strip of 72 columns, not
+// the image. Narrower strips cost more calls (about 30 us each at the detection's sizes).
+constexpr int kStripColumns = 64;
+
 struct Candidate {
     float value;
     int y, x;
@@ -65,10 +61,11 @@ struct Candidate {
 // maxima above zero of the columns [begin, end) (in the image's columns; the strip's
 // column 0 is the image's `left`), away from the image's border.
 void scanStrip(const cv::Mat &eig, int left, int begin, int end, int image_columns, const cv::Mat &mask,
-               double &max_allowed, bool &any_allowed, std::vector<Candidate> &candidates)
+               double &max_allowed, bool &any_allowed, std::vector<Candidate> &candidates,
+               std::vector<float> &neighbourhood_max)
 {
     const int rows = eig.rows;
-    std::vector<float> neighbourhood_max(std::size_t(eig.cols));
+    neighbourhood_max.resize(std::size_t(eig.cols));
     const int first = begin - left, last = end - left;  // kept columns, in the strip
     // OpenCV's own maximum (vectorised); a strip with nothing under the mask has none.
     const cv::Mat kept = eig.colRange(first, last);
@@ -119,8 +116,9 @@ void detectGoodCorners(const cv::Mat &image, std::vector<cv::Point2f> &corners, 
     std::vector<Candidate> candidates;
     double max_allowed = 0;
     bool any_allowed = false;
+    std::vector<float> neighbourhood_max;  // one strip row's, reused
     forEachEigenvalueStrip(image, kStripColumns, [&](const cv::Mat &eig, int left, int begin, int end) {
-        scanStrip(eig, left, begin, end, image.cols, mask, max_allowed, any_allowed, candidates);
+        scanStrip(eig, left, begin, end, image.cols, mask, max_allowed, any_allowed, candidates, neighbourhood_max);
     });
     if (!any_allowed)
         return;  // OpenCV's threshold is then 0, and no candidate is under the mask
