@@ -17,19 +17,24 @@ using namespace bench;
 namespace {
 
 // Frames/s of one run; `render` is the element's render property (warp: every frame must come
-// out warped; affine-meta: every frame is the input with the meta, none warped).
+// out warped; affine-meta: every frame is the input with the meta, none warped). With
+// `cpu_ms`: the process's CPU time per frame over the run (every thread: the element's, its
+// workers', appsrc's and the pushing one's).
 double elementRun(const GstFrames &frames, long pushes, int threads, std::string *error,
-                  const std::string &render = "warp")
+                  const std::string &render = "warp", double *cpu_ms = nullptr)
 {
     // The default (auto) warps in front of fakesink; naming render only when it is not the
     // warp keeps this harness usable on builds without the property (tests/bench/ab.sh).
     ElementRun run(frames, "threads=" + std::to_string(threads) + (render == "warp" ? "" : " render=" + render));
     run.start();
+    const double cpu0 = cpuSeconds(CLOCK_PROCESS_CPUTIME_ID);
     const auto t0 = Clock::now();
     for (long k = 0; k < pushes; ++k)
         run.push(k);
     const bool ok = run.finish();
     const double s = secondsBetween(t0, Clock::now());
+    if (cpu_ms != nullptr)
+        *cpu_ms = 1000.0 * (cpuSeconds(CLOCK_PROCESS_CPUTIME_ID) - cpu0) / double(pushes);
     if (!ok || run.received() != pushes) {
         *error = ok ? format("received %ld of %ld frames", run.received(), pushes) : run.error();
         return std::nan("");
@@ -50,28 +55,41 @@ void sectionAffineMeta(const Options &o, const std::vector<ResolutionPlan> &plan
 {
     Fragment frag(o, "speed_affine_meta");
     const int runs = o.quick ? 3 : 5;
+    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     frag.text(format("Zero-copy mode: `appsrc ! uavstabilize threads=2 render=affine-meta ! fakesink` (no warp, the input "
                      "buffer goes downstream with its GstVideoAffineTransformationMeta) against `render=warp`, I420, "
                      "runs alternated, median (min-max) of %d runs each after a warm-up. Target (issue 22): "
-                     "affine-meta >= 3x the warp's frames/s at 1920x1080.",
-                     runs));
-    Table t({"resolution", "warp fps", "affine-meta fps", "affine-meta / warp", "other processes"});
+                     "affine-meta >= 3x the warp's frames/s at 1920x1080. **CPU ms/frame**: the process's CPU time "
+                     "per frame (every thread, appsrc's included); **cores busy**: CPU time over wall time (%d "
+                     "cores here). Both modes estimate and plan every frame, and only the warp mode warps, so the "
+                     "fps ratio is the CPU ratio times the ratio of cores busy: the CPU ratio is what affine-meta "
+                     "reaches with the cores as busy as in the warp mode, and a faster warp lowers it.",
+                     runs, cores));
+    Table t({"resolution", "warp fps", "affine-meta fps", "affine-meta / warp", "CPU ms/frame warp",
+             "CPU ms/frame affine-meta", "CPU warp / affine-meta", "cores busy warp / affine-meta",
+             "other processes"});
     for (const ResolutionPlan &p : plans) {
         const GstFrames frames(framesFromBgr(bgr[p.res.name()], PixelFormat::I420), 30);
         std::string error;
-        std::vector<double> warp, meta, ratio;
+        std::vector<double> warp, meta, ratio, warp_cpu, meta_cpu, cpu_ratio, warp_busy, meta_busy;
         const double others = measureQuietly("affine-meta " + p.res.name(), [&] {
-            warp.clear();
-            meta.clear();
-            ratio.clear();
+            for (auto *v : {&warp, &meta, &ratio, &warp_cpu, &meta_cpu, &cpu_ratio, &warp_busy, &meta_busy})
+                v->clear();
             elementRun(frames, std::min<long>(p.pushes / 2, 60), 2, &error, "affine-meta");  // warm-up
             for (int r = 0; r < runs && error.empty(); ++r) {
-                const double w = elementRun(frames, p.pushes, 2, &error, "warp");
-                const double m = error.empty() ? elementRun(frames, p.pushes, 2, &error, "affine-meta") : 0.0;
+                double wc = 0.0, mc = 0.0;
+                const double w = elementRun(frames, p.pushes, 2, &error, "warp", &wc);
+                const double m = error.empty() ? elementRun(frames, p.pushes, 2, &error, "affine-meta", &mc) : 0.0;
                 if (error.empty()) {
                     warp.push_back(w);
                     meta.push_back(m);
                     ratio.push_back(m / w);
+                    warp_cpu.push_back(wc);
+                    meta_cpu.push_back(mc);
+                    cpu_ratio.push_back(wc / mc);
+                    // CPU ms per frame times frames per second: CPU seconds per second.
+                    warp_busy.push_back(wc * w / 1000.0);
+                    meta_busy.push_back(mc * m / 1000.0);
                 }
             }
         });
@@ -80,13 +98,19 @@ void sectionAffineMeta(const Options &o, const std::vector<ResolutionPlan> &plan
             continue;
         }
         t.row({p.res.name(), spread(warp, "%.0f"), spread(meta, "%.0f"), format("%.2fx", median(ratio)),
+               format("%.2f", median(warp_cpu)), format("%.2f", median(meta_cpu)),
+               format("%.2fx", median(cpu_ratio)), format("%.2f / %.2f", median(warp_busy), median(meta_busy)),
                loadCell(others)});
         const std::string key = format("element.affine_meta.%s", p.res.name().c_str());
         putResult(o, key + ".fps", median(meta));
         putResult(o, key + ".warp_fps", median(warp));
         putResult(o, key + ".ratio", median(ratio));
-        std::printf("  affine-meta %s: %s fps vs warp %s fps (%.2fx)\n", p.res.name().c_str(), spread(meta).c_str(),
-                    spread(warp).c_str(), median(ratio));
+        putResult(o, key + ".warp_cpu_ms", median(warp_cpu));
+        putResult(o, key + ".cpu_ms", median(meta_cpu));
+        putResult(o, key + ".cpu_ratio", median(cpu_ratio));
+        std::printf("  affine-meta %s: %s fps vs warp %s fps (%.2fx); CPU %.2f vs %.2f ms/frame (%.2fx)\n",
+                    p.res.name().c_str(), spread(meta).c_str(), spread(warp).c_str(), median(ratio), median(meta_cpu),
+                    median(warp_cpu), median(cpu_ratio));
     }
     frag.table(t);
 }
@@ -100,22 +124,30 @@ void sectionThroughput(const Options &o, const std::vector<ResolutionPlan> &plan
                      "3 frames queued at most) ! uavstabilize threads=N ! fakesink sync=false`, default properties "
                      "otherwise. Frames/s from the first push to EOS at the sink (a new pipeline per run, so each "
                      "run includes the element's start-up and the drain of the %s-frame delay), median (min-max) "
-                     "of %d runs after one warm-up run.",
+                     "of %d runs after one warm-up run. CPU ms/frame: the process's CPU time per frame (every "
+                     "thread, appsrc's included), and cores busy: CPU time over wall time, medians over the runs.",
                      "20", runs));
-    Table t({"resolution", "format", "threads", "frames/run", "fps median (min-max)", "ms/frame", "other processes"});
+    Table t({"resolution", "format", "threads", "frames/run", "fps median (min-max)", "ms/frame", "CPU ms/frame",
+             "cores busy", "other processes"});
     for (const ResolutionPlan &p : plans) {
         for (PixelFormat fmt : {PixelFormat::I420, PixelFormat::BGRx}) {
             const GstFrames frames(framesFromBgr(bgr[p.res.name()], fmt), 30);
             for (int threads : {1, 2}) {
                 std::string error;
-                std::vector<double> fps;
+                std::vector<double> fps, cpu, busy;
                 const double others = measureQuietly("element " + p.res.name(), [&] {
                     fps.clear();
+                    cpu.clear();
+                    busy.clear();
                     elementRun(frames, std::min<long>(p.pushes / 2, 60), threads, &error);  // warm-up
                     for (int r = 0; r < runs && error.empty(); ++r) {
-                        const double v = elementRun(frames, p.pushes, threads, &error);
-                        if (error.empty())
+                        double c = 0.0;
+                        const double v = elementRun(frames, p.pushes, threads, &error, "warp", &c);
+                        if (error.empty()) {
                             fps.push_back(v);
+                            cpu.push_back(c);
+                            busy.push_back(c * v / 1000.0);
+                        }
                     }
                 });
                 if (!error.empty()) {
@@ -125,11 +157,13 @@ void sectionThroughput(const Options &o, const std::vector<ResolutionPlan> &plan
                 }
                 const double med = median(fps);
                 t.row({p.res.name(), formatName(fmt), std::to_string(threads), std::to_string(p.pushes),
-                       spread(fps, "%.0f"), format("%.2f", 1000.0 / med), loadCell(others)});
+                       spread(fps, "%.0f"), format("%.2f", 1000.0 / med), format("%.2f", median(cpu)),
+                       format("%.2f", median(busy)), loadCell(others)});
                 const std::string key = format("element.fps.%s.%s.t%d", p.res.name().c_str(), formatName(fmt), threads);
                 putResult(o, key, med);
                 putResult(o, key + ".min", minOf(fps));
                 putResult(o, key + ".max", maxOf(fps));
+                putResult(o, key + ".cpu_ms", median(cpu));
                 std::printf("  element %s %s threads=%d: %s fps\n", p.res.name().c_str(), formatName(fmt), threads,
                             spread(fps).c_str());
                 std::fflush(stdout);

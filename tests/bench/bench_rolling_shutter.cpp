@@ -545,13 +545,6 @@ void sectionStill(const Options &o, GlobalRuns &global)
 
 // ---- section: cost at 1080p -----------------------------------------------------------------
 
-double cpuSeconds(clockid_t clock)
-{
-    timespec ts{};
-    clock_gettime(clock, &ts);
-    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
-
 struct Cost {
     double estimate_ms = 0;  // push(): estimation, on the calling thread
     double worker_ms = 0;    // the worker thread: planning and warping

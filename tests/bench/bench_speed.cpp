@@ -29,9 +29,10 @@ using namespace bench;
 
 namespace {
 
-// One timed run: frames/s from the first push to the last pop.
+// One timed run: frames/s from the first push to the last pop; with `cpu_ms`, the process's
+// CPU time per frame over the run.
 double libraryRun(const std::vector<FrameBuffer> &frames, long pushes, const StabilizerConfig &config, OutputPool &pool,
-                  long *failed)
+                  long *failed, double *cpu_ms = nullptr)
 {
     Stabilizer stabilizer(config);
     // Bound the warps in flight, as a host with a fixed buffer pool would.
@@ -42,6 +43,7 @@ double libraryRun(const std::vector<FrameBuffer> &frames, long pushes, const Sta
         if (f->outcome != Outcome::Warped)
             ++*failed;
     };
+    const double cpu0 = cpuSeconds(CLOCK_PROCESS_CPUTIME_ID);
     const auto t0 = Clock::now();
     for (long k = 0; k < pushes; ++k) {
         const int i = pingPong(k, int(frames.size()));
@@ -56,6 +58,8 @@ double libraryRun(const std::vector<FrameBuffer> &frames, long pushes, const Sta
     while (auto f = stabilizer.waitPop())
         take(std::move(f));
     const double s = secondsBetween(t0, Clock::now());
+    if (cpu_ms != nullptr)
+        *cpu_ms = 1000.0 * (cpuSeconds(CLOCK_PROCESS_CPUTIME_ID) - cpu0) / double(pushes);
     if (popped != pushes)
         throw std::runtime_error("library run lost frames");
     return double(pushes) / s;
@@ -69,9 +73,12 @@ void sectionLibrary(const Options &o, const std::vector<ResolutionPlan> &plans,
     frag.text(format("Library alone: `Stabilizer` push/tryPop on frames made in memory beforehand (the synthetic "
                      "flight, played back and forth), default config (delay 20, l1 planner, analysis width 640), "
                      "output frames recycled from a pool, at most threads+2 warps in flight. Frames/s, median "
-                     "(min-max) of %d runs after one warm-up run. OpenCV's own thread pool: %d threads.",
+                     "(min-max) of %d runs after one warm-up run. OpenCV's own thread pool: %d threads. CPU "
+                     "ms/frame: the process's CPU time per frame, and cores busy: CPU time over wall time, medians "
+                     "over the runs (as in the element's table).",
                      runs, cv::getNumThreads()));
-    Table t({"resolution", "format", "threads", "frames/run", "fps median (min-max)", "ms/frame", "other processes"});
+    Table t({"resolution", "format", "threads", "frames/run", "fps median (min-max)", "ms/frame", "CPU ms/frame",
+             "cores busy", "other processes"});
     for (const ResolutionPlan &p : plans) {
         const auto &bgr = bgr_cache[p.res.name()];
         for (PixelFormat fmt : {PixelFormat::I420, PixelFormat::BGRx}) {
@@ -81,21 +88,29 @@ void sectionLibrary(const Options &o, const std::vector<ResolutionPlan> &plans,
                 config.threads = threads;
                 OutputPool pool(fmt, p.res.width, p.res.height);
                 long failed = 0;
-                std::vector<double> fps;
+                std::vector<double> fps, cpu, busy;
                 const double others = measureQuietly("library " + p.res.name(), [&] {
                     fps.clear();
+                    cpu.clear();
+                    busy.clear();
                     failed = 0;
                     libraryRun(frames, std::min<long>(p.pushes / 2, 60), config, pool, &failed);  // warm-up
-                    for (int r = 0; r < runs; ++r)
-                        fps.push_back(libraryRun(frames, p.pushes, config, pool, &failed));
+                    for (int r = 0; r < runs; ++r) {
+                        double c = 0.0;
+                        fps.push_back(libraryRun(frames, p.pushes, config, pool, &failed, &c));
+                        cpu.push_back(c);
+                        busy.push_back(c * fps.back() / 1000.0);
+                    }
                 });
                 const double med = median(fps);
                 t.row({p.res.name(), formatName(fmt), std::to_string(threads), std::to_string(p.pushes),
-                       spread(fps, "%.0f"), format("%.2f", 1000.0 / med), loadCell(others)});
+                       spread(fps, "%.0f"), format("%.2f", 1000.0 / med), format("%.2f", median(cpu)),
+                       format("%.2f", median(busy)), loadCell(others)});
                 const std::string key = format("lib.fps.%s.%s.t%d", p.res.name().c_str(), formatName(fmt), threads);
                 putResult(o, key, med);
                 putResult(o, key + ".min", minOf(fps));
                 putResult(o, key + ".max", maxOf(fps));
+                putResult(o, key + ".cpu_ms", median(cpu));
                 std::printf("  lib %s %s threads=%d: %s fps%s\n", p.res.name().c_str(), formatName(fmt), threads,
                             spread(fps).c_str(), failed ? " (FAILED FRAMES)" : "");
                 std::fflush(stdout);

@@ -105,6 +105,13 @@ long statusField(const char *name)
 }
 } // namespace
 
+double cpuSeconds(clockid_t clock)
+{
+    timespec ts{};
+    clock_gettime(clock, &ts);
+    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
 long rssKiB()
 {
     return statusField("VmRSS");

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <chrono>
+#include <ctime>
 #include <cstdint>
 #include <cstdio>
 #include <functional>
@@ -35,6 +36,9 @@ double maxOf(const std::vector<double> &v);
 std::string spread(const std::vector<double> &v, const char *number_format = "%.0f");
 
 std::string format(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
+// CPU seconds of a clock: CLOCK_PROCESS_CPUTIME_ID (every thread), CLOCK_THREAD_CPUTIME_ID.
+double cpuSeconds(clockid_t clock);
 
 // ---- process memory (Linux /proc) ----------------------------------------------------
 long rssKiB();        // VmRSS
