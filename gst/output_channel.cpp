@@ -21,7 +21,8 @@ void OutputChannel::startFlushing()
     flushing_ = true;
     // Wakes a chain blocked in acquireBuffer().
     setPoolFlushingLocked(true);
-    changed_.notify_all();
+    chain_wake_.notify_all();
+    task_wake_.notify_all();
 }
 
 void OutputChannel::setPoolFlushingLocked(bool flushing)
@@ -72,7 +73,8 @@ void OutputChannel::deactivate()
     active_ = false;
     flushing_ = true;
     setPoolFlushingLocked(true);
-    changed_.notify_all();
+    chain_wake_.notify_all();
+    task_wake_.notify_all();
 }
 
 void OutputChannel::clear()
@@ -105,14 +107,14 @@ GstFlowReturn OutputChannel::flow() const
 GstFlowReturn OutputChannel::waitForRoom(const std::function<bool()> &has_room)
 {
     std::unique_lock<std::mutex> lock(mutex_);
-    changed_.wait(lock, [&] { return flushing_ || last_flow_ != GST_FLOW_OK || has_room(); });
+    chain_wake_.wait(lock, [&] { return flushing_ || last_flow_ != GST_FLOW_OK || has_room(); });
     return flowLocked();
 }
 
 GstFlowReturn OutputChannel::queueFrameWhenRoom(const std::function<bool()> &has_room)
 {
     std::unique_lock<std::mutex> lock(mutex_);
-    changed_.wait(lock, [&] { return flushing_ || last_flow_ != GST_FLOW_OK || has_room(); });
+    chain_wake_.wait(lock, [&] { return flushing_ || last_flow_ != GST_FLOW_OK || has_room(); });
     const GstFlowReturn ret = flowLocked();
     if (ret == GST_FLOW_OK)
         queue_.pushFrame();
@@ -140,14 +142,14 @@ OutputChannel::EventQueued OutputChannel::queueEvent(EventPtr event)
     if (type == GST_EVENT_EOS)
         eos_queued_ = true;
     queue_.pushEvent(std::move(event));
-    changed_.notify_all();
+    task_wake_.notify_all();
     return result;
 }
 
 bool OutputChannel::waitUntilDrained()
 {
     std::unique_lock<std::mutex> lock(mutex_);
-    changed_.wait(lock, [&] { return flushing_ || last_flow_ != GST_FLOW_OK || (queue_.empty() && !pushing_); });
+    chain_wake_.wait(lock, [&] { return flushing_ || last_flow_ != GST_FLOW_OK || (queue_.empty() && !pushing_); });
     return !flushing_ && last_flow_ == GST_FLOW_OK;
 }
 
@@ -155,7 +157,8 @@ void OutputChannel::recordError()
 {
     std::lock_guard<std::mutex> lock(mutex_);
     stopDataLocked(GST_FLOW_ERROR);
-    changed_.notify_all();
+    chain_wake_.notify_all();
+    task_wake_.notify_all();
 }
 
 // ---------------------------------------------------------------------------------
@@ -165,7 +168,7 @@ bool OutputChannel::takeNext(const std::function<std::optional<uavstab::Stabiliz
                              std::optional<uavstab::StabilizedFrame> &frame, EventPtr &event)
 {
     std::unique_lock<std::mutex> lock(mutex_);
-    changed_.wait(lock, [&] {
+    task_wake_.wait(lock, [&] {
         if (flushing_ || queue_.frontIsEvent())
             return true;
         if (!queue_.frontIsFrame())
@@ -185,22 +188,27 @@ bool OutputChannel::takeNext(const std::function<std::optional<uavstab::Stabiliz
 
 bool OutputChannel::finishPush(GstFlowReturn ret, const std::function<void()> &pause_task)
 {
-    std::lock_guard<std::mutex> lock(mutex_);
-    pushing_ = false;
-    if (ret != GST_FLOW_OK) {
-        if (!flushing_)
-            stopDataLocked(ret);
-        pause_task();
+    bool eos_queued;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        pushing_ = false;
+        if (ret != GST_FLOW_OK) {
+            if (!flushing_)
+                stopDataLocked(ret);
+            pause_task();
+        }
+        eos_queued = eos_queued_;
     }
-    changed_.notify_all();
-    return eos_queued_;
+    // Outside the mutex: a waiter woken while it is held would only block on it again.
+    chain_wake_.notify_all();
+    return eos_queued;
 }
 
 bool OutputChannel::finishEos(const std::function<void()> &pause_task)
 {
     std::lock_guard<std::mutex> lock(mutex_);
     pushing_ = false;
-    changed_.notify_all();
+    chain_wake_.notify_all();
     if (!queue_.empty()) {
         // After EOS the sink pad takes nothing but STREAM_START (or a flush, which empties
         // the queue), so what is queued is a new stream: go on with it.
@@ -218,7 +226,7 @@ void OutputChannel::abortPush()
     std::lock_guard<std::mutex> lock(mutex_);
     pushing_ = false;
     stopDataLocked(GST_FLOW_ERROR);
-    changed_.notify_all();
+    chain_wake_.notify_all();
 }
 
 // ---------------------------------------------------------------------------------
@@ -260,7 +268,9 @@ GstBuffer *OutputChannel::acquireBuffer()
 
 void OutputChannel::notify()
 {
-    // Under the mutex, so that a waiter between its check and its wait cannot miss it.
-    std::lock_guard<std::mutex> lock(mutex_);
-    changed_.notify_all();
+    // The change came from outside (a frame became ready): taking the mutex once makes a
+    // waiter that checked before it be waiting by now, so it cannot miss the notification,
+    // which comes after the mutex is released, so the waiter does not wake only to block on it.
+    { std::lock_guard<std::mutex> lock(mutex_); }
+    task_wake_.notify_all();
 }

@@ -107,7 +107,7 @@ public:
     // until downstream returns a buffer (startFlushing() wakes it).
     GstBuffer *acquireBuffer();
 
-    // Wakes every waiter (a worker finished a warp).
+    // Wakes the src task (a worker finished a warp).
     void notify();
 
 private:
@@ -122,7 +122,11 @@ private:
 
     GstObject *owner_;
     mutable std::mutex mutex_;
-    std::condition_variable changed_;  // signalled on every change
+    // Each waiter has its own: the streaming thread (room for a frame, the queue drained:
+    // what the task's pushes change) and the src task (a frame ready, an event queued),
+    // so that neither is woken for the other's changes. Flushing, errors: both.
+    std::condition_variable chain_wake_;
+    std::condition_variable task_wake_;
     OutputQueue queue_;
     bool flushing_ = true;
     bool active_ = false;      // the src pad is active (between activate and deactivate)
