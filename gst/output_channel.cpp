@@ -268,9 +268,9 @@ GstBuffer *OutputChannel::acquireBuffer()
 
 void OutputChannel::notify()
 {
-    // The change came from outside (a frame became ready): taking the mutex once makes a
-    // waiter that checked before it be waiting by now, so it cannot miss the notification,
-    // which comes after the mutex is released, so the waiter does not wake only to block on it.
+    // The change (a frame became ready) happened outside this mutex. Taking the mutex once
+    // means a waiter that checked before the change is waiting by now, so it cannot miss the
+    // notification; sending it after the mutex is released spares the woken task blocking on it.
     { std::lock_guard<std::mutex> lock(mutex_); }
     task_wake_.notify_all();
 }
