@@ -20,6 +20,7 @@
 #include "buffer_slot.hpp"
 #include "format_conversion.hpp"
 #include "jitter_metrics.hpp"
+#include "osd.hpp"
 #include "shaky_flight.hpp"
 #include "uavstab/config_params.hpp"
 #include "uavstab/debug_overlay.hpp"
@@ -234,75 +235,6 @@ TEST(Exclude, ChangedWhileRunningAndVisibleInTheFramesTracks)
 
 namespace {
 
-// The aerial photograph through haze: blurred, contrast halved about mid-grey.
-cv::Mat hazy(const cv::Mat &bgr)
-{
-    cv::Mat out;
-    cv::GaussianBlur(bgr, out, cv::Size(0, 0), 2.0);
-    out.convertTo(out, -1, 0.5, 64.0);
-    return out;
-}
-
-// White with a black outline, as OSDs draw so that they read on any background.
-void outlinedLine(cv::Mat &img, cv::Point a, cv::Point b)
-{
-    cv::line(img, a, b, cv::Scalar(0, 0, 0), 4);
-    cv::line(img, a, b, cv::Scalar(255, 255, 255), 2);
-}
-
-void outlinedText(cv::Mat &img, const std::string &text, cv::Point at, double scale)
-{
-    cv::putText(img, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0, 0, 0), 4);
-    cv::putText(img, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(255, 255, 255), 1);
-}
-
-// A drone's OSD at fixed screen positions of a 640x360 frame: a timestamp and telemetry
-// along the top, a status bar along the bottom, speed and altitude boxes at the sides,
-// a crosshair in the centre and a pitch ladder around it.
-void burnOsd(cv::Mat &img, int frame)
-{
-    const int w = img.cols, h = img.rows, cx = w / 2, cy = h / 2;
-    char text[128];
-    std::snprintf(text, sizeof text, "2026-12-01 12:34:%02d.%02d  REC", 10 + frame / 30, (frame % 30) * 3);
-    outlinedText(img, text, {12, 24}, 0.6);
-    outlinedText(img, "GPS 14  BAT 87%  LINK -62dBm", {w - 300, 24}, 0.5);
-    cv::rectangle(img, cv::Rect(0, h - 30, w, 30), cv::Scalar(0, 0, 0), cv::FILLED);
-    outlinedText(img, "N 47.3977  E 8.5456  HDG 271  MODE POS", {12, h - 10}, 0.5);
-    for (int side = 0; side < 2; ++side) {  // speed (left) and altitude (right) boxes
-        const int x = side == 0 ? 30 : w - 100;
-        cv::rectangle(img, cv::Rect(x, cy - 14, 70, 28), cv::Scalar(255, 255, 255), 2);
-        std::snprintf(text, sizeof text, side == 0 ? "%4.1f" : "%4.0fm", side == 0 ? 12.3 : 120.0);
-        outlinedText(img, text, {x + 8, cy + 7}, 0.55);
-        for (int t = -3; t <= 3; ++t)  // tape ticks
-            outlinedLine(img, {side == 0 ? x + 74 : x - 12, cy + 30 * t}, {side == 0 ? x + 84 : x - 2, cy + 30 * t});
-    }
-    // Crosshair.
-    outlinedLine(img, {cx - 40, cy}, {cx - 8, cy});
-    outlinedLine(img, {cx + 8, cy}, {cx + 40, cy});
-    outlinedLine(img, {cx, cy - 30}, {cx, cy - 8});
-    outlinedLine(img, {cx, cy + 8}, {cx, cy + 30});
-    cv::circle(img, {cx, cy}, 3, cv::Scalar(255, 255, 255), cv::FILLED);
-    // Pitch ladder: rungs every 45 px with their degrees, dashed below the horizon.
-    for (int k = -2; k <= 2; ++k) {
-        if (k == 0)
-            continue;
-        const int y = cy + 45 * k;
-        for (int s = -1; s <= 1; s += 2) {
-            const int x0 = cx + s * 55, x1 = cx + s * 110;
-            if (k < 0) {
-                outlinedLine(img, {x0, y}, {x1, y});
-            } else {
-                outlinedLine(img, {x0, y}, {(x0 + x1) / 2 - s * 4, y});
-                outlinedLine(img, {(x0 + x1) / 2 + s * 4, y}, {x1, y});
-            }
-            outlinedLine(img, {x1, y}, {x1, y + (k < 0 ? 8 : -8)});
-        }
-        std::snprintf(text, sizeof text, "%d", -10 * k);
-        outlinedText(img, text, {cx + 118, y + 5}, 0.45);
-        outlinedText(img, text, {cx - 145, y + 5}, 0.45);
-    }
-}
-
 // The OSD's regions, fractions of the frame (with a few pixels to spare).
 const char *const kOsdRegions = "0,0,1,0.1;"            // timestamp, telemetry
                                 "0,0.9,1,0.1;"          // status bar
@@ -339,9 +271,9 @@ FlightResult flyHazyUncached(const synthetic::ShakyFlight &flight, bool osd, con
         result.points += f.stats.points;
     };
     for (int i = 0; i < flight.frameCount(); ++i) {
-        cv::Mat bgr = haze ? hazy(flight.renderBgr(i)) : flight.renderBgr(i);
+        cv::Mat bgr = haze ? synthetic::hazy(flight.renderBgr(i)) : flight.renderBgr(i);
         if (osd)
-            burnOsd(bgr, i);
+            synthetic::burnOsd(bgr, i);
         FrameBuffer frame(PixelFormat::I420, bgr.cols, bgr.rows);
         synthetic::bgrToFrame(bgr, frame);
         stabilizer.push(test::BufferSlot::make(std::move(frame), i));
@@ -381,8 +313,8 @@ TEST(Exclude, AnExcludedOsdDoesNotPinTheHazyFlightToTheScreen)
     options.frames = 150;
     const synthetic::ShakyFlight flight(options);
     if (const char *dump = std::getenv("UAVSTAB_OSD_SAMPLE")) {  // a look at the test's input
-        cv::Mat bgr = hazy(flight.renderBgr(0));
-        burnOsd(bgr, 0);
+        cv::Mat bgr = synthetic::hazy(flight.renderBgr(0));
+        synthetic::burnOsd(bgr, 0);
         cv::imwrite(dump, bgr);
     }
     if (const char *dump = std::getenv("UAVSTAB_OVERLAY_SAMPLE")) {  // frame 60 stabilized, debug overlay on
@@ -392,8 +324,8 @@ TEST(Exclude, AnExcludedOsdDoesNotPinTheHazyFlightToTheScreen)
         ASSERT_TRUE(parseRects(kOsdRegions, config.exclude));
         Stabilizer stabilizer(config);
         for (int i = 0; i <= 60; ++i) {
-            cv::Mat bgr = hazy(flight.renderBgr(i));
-            burnOsd(bgr, i);
+            cv::Mat bgr = synthetic::hazy(flight.renderBgr(i));
+            synthetic::burnOsd(bgr, i);
             FrameBuffer frame(PixelFormat::I420, bgr.cols, bgr.rows);
             synthetic::bgrToFrame(bgr, frame);
             stabilizer.push(test::BufferSlot::make(std::move(frame), i));
