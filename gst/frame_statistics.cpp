@@ -42,7 +42,9 @@ GstStructure *frameStatistics(const uavstab::StabilizedFrame &frame, GstUavStabO
         G_TYPE_STRING, uavstab::toString(stats.model), "points", G_TYPE_INT, stats.points, "inliers", G_TYPE_INT,
         stats.inliers, "skipped", G_TYPE_BOOLEAN, gboolean(stats.skipped), "segment-start", G_TYPE_BOOLEAN,
         gboolean(stats.segment_start), "outcome", G_TYPE_STRING, outcomeName(outcome), "wobble", G_TYPE_DOUBLE,
-        stats.row_motion.wobble, nullptr);
+        stats.row_motion.wobble, "rolling-shutter", G_TYPE_BOOLEAN,
+        gboolean(outcome == GST_UAV_STAB_OUTCOME_WARPED && !stats.row_motion.empty()), "readout", G_TYPE_DOUBLE,
+        stats.readout, "readout-confidence", G_TYPE_DOUBLE, stats.readout_confidence, nullptr);
     if (GST_CLOCK_TIME_IS_VALID(pts) && segment.format == GST_FORMAT_TIME) {
         const guint64 running_time = gst_segment_to_running_time(&segment, GST_FORMAT_TIME, pts);
         const guint64 stream_time = gst_segment_to_stream_time(&segment, GST_FORMAT_TIME, pts);

@@ -191,6 +191,9 @@ GstBuffer *attachStabMeta(GstBuffer *buffer, const uavstab::StabilizedFrame &fra
     meta->height = height;
     // An affine meta carries one transform: a wobble is not corrected that way.
     meta->wobble = outcome == GST_UAV_STAB_OUTCOME_WARPED ? stats.row_motion.wobble : 0.0;
+    meta->rolling_shutter = outcome == GST_UAV_STAB_OUTCOME_WARPED && !stats.row_motion.empty();
+    meta->readout = stats.readout;
+    meta->readout_confidence = stats.readout_confidence;
     if (outcome == GST_UAV_STAB_OUTCOME_WARPED || outcome == GST_UAV_STAB_OUTCOME_AFFINE_META)
         pixelMatrix3x3(stats.output_to_input, width, height, meta->output_to_input);
     else

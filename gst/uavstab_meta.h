@@ -48,7 +48,7 @@ G_BEGIN_DECLS
 #define GST_UAV_STAB_META_API_NAME "GstUavStabMetaAPI"
 #define GST_UAV_STAB_META_IMPL_NAME "GstUavStabMeta"
 /* Bumped when fields or outcomes are added (fields at the end of the struct). */
-#define GST_UAV_STAB_META_VERSION 3
+#define GST_UAV_STAB_META_VERSION 4
 
 /* A similarity about the frame centre: p' = scale * R(angle) * p + (dx, dy). */
 typedef struct {
@@ -98,6 +98,12 @@ typedef struct {
     gdouble wobble;                 /* rolling shutter: RMS px by which the input's rows were bent and put
                                        back (each output row then has its own transform, near output_to_input);
                                        0 = not corrected */
+    /* version >= 4 */
+    gboolean rolling_shutter;       /* the input's rows were put back where its mid-exposure saw them (each
+                                       output row has its own transform); FALSE: one transform, output_to_input */
+    gdouble readout;                /* the sensor's readout time as a share of the frame time: the
+                                       readout-time property's, else the stream's estimate (0 = not known yet) */
+    gdouble readout_confidence;     /* 0-1: how sure the estimate is (1 when set by the property) */
 } GstUavStabMeta;
 
 /* The meta's API type, or 0 (G_TYPE_INVALID) while the plugin is not loaded. */

@@ -94,8 +94,8 @@ void MotionEstimator::setConfig(const StabilizerConfig &config)
         screen_fixed_->clear();
         tracker_.setAutoExclude({});
     }
-    if (config.rolling_shutter != config_.rolling_shutter) {
-        rolling_shutter_.reset();
+    if (config.rolling_shutter != config_.rolling_shutter || config.readout_time != config_.readout_time) {
+        rolling_shutter_.restartStream();
         last_rows_ = {};
         wide_detection_ = false;
     }
@@ -108,6 +108,11 @@ void MotionEstimator::setConfig(const StabilizerConfig &config)
 MotionEstimate MotionEstimator::estimate(const FrameView &frame)
 {
     MotionEstimate result;
+    if (config_.rolling_shutter != RollingShutter::Off) {
+        // What it knows before this frame (a frame it cannot use changes nothing).
+        result.readout = rolling_shutter_.readout();
+        result.readout_confidence = rolling_shutter_.readoutConfidence();
+    }
     PointMatches matches = tracker_.track(frame);
     const double scale = std::max(1.0, double(frame.width) / std::min(frame.width, config_.analysis_width));
     if (config_.exclude_static && !matches.first) {
@@ -192,6 +197,8 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
             }
         }
         result.row_motion = rows;
+        result.readout = rolling_shutter_.readout();
+        result.readout_confidence = rolling_shutter_.readoutConfidence();
         last_rows_ = std::move(rows);
         if (last_rows_.empty() == wide_detection_) {
             wide_detection_ = !wide_detection_;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include <Eigen/Dense>
 
@@ -22,6 +23,13 @@ constexpr double kFirstRoundWidening = 2.0;
 constexpr double kRamp = 0.5;
 // The bend is held to this many times the level of its frame-to-frame changes (below).
 constexpr double kMaxBendPerChange = 8.0;
+// The readout estimate: a regression over this many frames at least, held
+// for the rest of the stream once its standard error is kReadoutError * (1 - hold) or less.
+constexpr int kReadoutMinSamples = 30;
+constexpr double kReadoutError = 0.1;
+constexpr double kReadoutHoldConfidence = 0.8;
+// A held estimate below this share of the frame time: a global shutter.
+constexpr double kGlobalShutter = 0.1;
 
 struct Bands {
     int count;
@@ -115,6 +123,17 @@ void RollingShutterEstimator::reset()
     mean_velocity_ = Similarity::identity();
     level_ = 0.0;
     frames_ = 0;
+    applied_ = false;
+    readout_fit_.has_previous = false;
+}
+
+void RollingShutterEstimator::restartStream()
+{
+    reset();
+    evidence_ = 0.0;
+    evidence_frames_ = 0;
+    latched_ = false;
+    readout_fit_ = {};
 }
 
 RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous, const std::vector<Point2> &current,
@@ -123,7 +142,11 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     const int band_count = std::clamp(settings_.bands, 1, std::max(1, height / 8));
     const Bands bands = bandsFor(height, band_count);
     const std::size_t unknowns = std::size_t(band_count * kUnknownsPerBand);
-    if (width != width_ || height != height_ || offsets_.size() != unknowns) {
+    if (width != width_ || height != height_) {
+        restartStream();
+        width_ = width;
+        height_ = height;
+    } else if (offsets_.size() != unknowns) {
         reset();
         width_ = width;
         height_ = height;
@@ -134,8 +157,6 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     const double px640 = double(width) / 640.0;
     const std::size_t n = std::min(previous.size(), current.size());
     const bool automatic = settings_.automatic && settings_.readout <= 0.0;
-    // Too few tracks to tell bands apart: the offsets fade out.
-    const bool enough = n >= std::size_t(2 * band_count);
 
     // What the similarity leaves: previous - motion(current), per track. A point sits on
     // other rows in the previous frame when the camera moves, where that frame's offsets
@@ -150,11 +171,31 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
         residual[i] = {previous[i].x - m.x - (there.x - here.x), previous[i].y - m.y - (there.y - here.y)};
     }
 
+    // Tracks the fit may use: not an overlay's (the frame's transform moves them, they stay
+    // where they are on the screen; the tracks exclude_static drops never get here). The
+    // frame fit's outliers get no weight from the robust rounds below; a hard cut on the
+    // frame fit's residual would lose the rows a large wobble moved furthest for good
+    // (the 47 Hz flight kept 0.69x of its wobble with one, 0.28x without).
+    const double outlier = settings_.robust * px640;
+    std::vector<std::uint8_t> eligible(n, 0);
+    std::size_t eligible_count = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const Point2 m = motion.apply(current[i]);
+        const double expected = std::hypot(m.x - current[i].x, m.y - current[i].y);
+        const double moved = std::hypot(previous[i].x - current[i].x, previous[i].y - current[i].y);
+        eligible[i] = !(expected > settings_.static_motion * px640 && moved < 0.25 * expected);
+        eligible_count += eligible[i];
+    }
+    // Too few tracks to tell bands apart: the offsets fade out.
+    const bool enough = eligible_count >= std::size_t(2 * band_count);
+
     // The bands' motion differences z (this frame's offsets minus the previous frame's,
     // negated), by robust weighted least squares.
     Eigen::VectorXd z = Eigen::VectorXd::Zero(Eigen::Index(unknowns));
     std::vector<double> robust_weight(n, 1.0);
     double difference_rms = 0.0;
+    double explained = 0.0;  // the held-out tracks' residual the bands remove (share)
+    bool explained_measured = false;
     if (enough) {
         // Each track's band weights (those that matter: a band more than three spacings away
         // gets under 1 %), computed once for all rounds.
@@ -174,43 +215,39 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
             for (int b = t.lo; b <= t.hi; ++b)
                 t.w[b - t.lo] = w[std::size_t(b)];
         }
-        const double outlier = settings_.robust * px640;
-        for (int round = 0; round < kRounds; ++round) {
-            Eigen::MatrixXd a = Eigen::MatrixXd::Zero(Eigen::Index(unknowns), Eigen::Index(unknowns));
-            Eigen::VectorXd rhs = Eigen::VectorXd::Zero(Eigen::Index(unknowns));
-            double weight_sum = 0.0;
-            for (std::size_t i = 0; i < n; ++i) {
-                const double rw = robust_weight[i];
-                if (rw <= 0.0)
-                    continue;
-                const Point2 p = current[i];
-                const TrackBands &t = track_bands[i];
-                // The track's motion model: sum over bands of w_b (x_b, y_b) + w_b turn_b (tx_b, ty),
-                // tx_b = -(y - centre_b) / half_width, ty = x / half_width. The normal equations'
-                // terms band by band (gx gx^T + gy gy^T, written out).
-                const double ty = p.x / half_width;
-                for (int b = t.lo; b <= t.hi; ++b) {
-                    const double wb = rw * t.w[b - t.lo];
-                    const double txb = -(p.y - bands.centre(b)) / half_width;
-                    const Eigen::Index kb = b * kUnknownsPerBand;
-                    rhs[kb] += wb * residual[i].x;
-                    rhs[kb + 1] += wb * residual[i].y;
-                    rhs[kb + 2] += wb * (txb * residual[i].x + ty * residual[i].y);
-                    for (int c = t.lo; c <= t.hi; ++c) {
-                        const double wbc = wb * t.w[c - t.lo];
-                        const double txc = -(p.y - bands.centre(c)) / half_width;
-                        const Eigen::Index kc = c * kUnknownsPerBand;
-                        a(kb, kc) += wbc;
-                        a(kb, kc + 2) += wbc * txc;
-                        a(kb + 1, kc + 1) += wbc;
-                        a(kb + 1, kc + 2) += wbc * ty;
-                        a(kb + 2, kc) += wbc * txb;
-                        a(kb + 2, kc + 1) += wbc * ty;
-                        a(kb + 2, kc + 2) += wbc * (txb * txc + ty * ty);
-                    }
+        for (std::size_t i = 0; i < n; ++i)
+            robust_weight[i] = eligible[i] ? 1.0 : 0.0;
+        const Eigen::Index size = Eigen::Index(unknowns);
+        // One track's terms of the normal equations. Its motion model: sum over bands of
+        // w_b (x_b, y_b) + w_b turn_b (tx_b, ty), tx_b = -(y - centre_b) / half_width,
+        // ty = x / half_width; the terms band by band (gx gx^T + gy gy^T, written out).
+        auto accumulate = [&](std::size_t i, double rw, Eigen::MatrixXd &a, Eigen::VectorXd &rhs) {
+            const Point2 p = current[i];
+            const TrackBands &t = track_bands[i];
+            const double ty = p.x / half_width;
+            for (int b = t.lo; b <= t.hi; ++b) {
+                const double wb = rw * t.w[b - t.lo];
+                const double txb = -(p.y - bands.centre(b)) / half_width;
+                const Eigen::Index kb = b * kUnknownsPerBand;
+                rhs[kb] += wb * residual[i].x;
+                rhs[kb + 1] += wb * residual[i].y;
+                rhs[kb + 2] += wb * (txb * residual[i].x + ty * residual[i].y);
+                for (int c = t.lo; c <= t.hi; ++c) {
+                    const double wbc = wb * t.w[c - t.lo];
+                    const double txc = -(p.y - bands.centre(c)) / half_width;
+                    const Eigen::Index kc = c * kUnknownsPerBand;
+                    a(kb, kc) += wbc;
+                    a(kb, kc + 2) += wbc * txc;
+                    a(kb + 1, kc + 1) += wbc;
+                    a(kb + 1, kc + 2) += wbc * ty;
+                    a(kb + 2, kc) += wbc * txb;
+                    a(kb + 2, kc + 1) += wbc * ty;
+                    a(kb + 2, kc + 2) += wbc * (txb * txc + ty * ty);
                 }
-                weight_sum += rw;
             }
+        };
+        // The penalties, in proportion to the weight of the tracks fitted.
+        auto solve = [&](Eigen::MatrixXd a, const Eigen::VectorXd &rhs, double weight_sum) {
             const double smooth = settings_.band_smoothness * weight_sum, ridge = settings_.band_ridge * weight_sum;
             for (int b = 0; b < band_count; ++b)
                 for (int k = 0; k < kUnknownsPerBand; ++k) {
@@ -224,12 +261,66 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
                         a(j, i) -= smooth;
                     }
                 }
-            z = a.ldlt().solve(rhs);
+            return Eigen::VectorXd(a.ldlt().solve(rhs));
+        };
+        for (int round = 0; round < kRounds; ++round) {
+            Eigen::MatrixXd a = Eigen::MatrixXd::Zero(size, size);
+            Eigen::VectorXd rhs = Eigen::VectorXd::Zero(size);
+            double weight_sum = 0.0;
+            if (round == 0) {
+                // Two halves (every other eligible track), each fitted on its own and judged
+                // on the other: the evidence that the bands describe the scene (below).
+                Eigen::MatrixXd half_a[2] = {a, a};
+                Eigen::VectorXd half_rhs[2] = {rhs, rhs};
+                double half_sum[2] = {0.0, 0.0};
+                std::vector<std::uint8_t> half(n, 0);
+                int next = 0;
+                for (std::size_t i = 0; i < n; ++i)
+                    if (eligible[i]) {
+                        half[i] = std::uint8_t(next);
+                        accumulate(i, 1.0, half_a[next], half_rhs[next]);
+                        half_sum[next] += 1.0;
+                        next ^= 1;
+                    }
+                a = half_a[0] + half_a[1];
+                rhs = half_rhs[0] + half_rhs[1];
+                weight_sum = half_sum[0] + half_sum[1];
+                if (half_sum[1] >= double(band_count)) {
+                    const Eigen::VectorXd z_half[2] = {solve(half_a[0], half_rhs[0], half_sum[0]),
+                                                       solve(half_a[1], half_rhs[1], half_sum[1])};
+                    const std::vector<double> motion_half[2] = {
+                        std::vector<double>(z_half[0].data(), z_half[0].data() + z_half[0].size()),
+                        std::vector<double>(z_half[1].data(), z_half[1].data() + z_half[1].size())};
+                    // Errors capped (at the robust weights' reach): one wild track does not decide.
+                    const double cap = std::pow(kTukeyScale * outlier, 2);
+                    double before = 0.0, after = 0.0;
+                    for (std::size_t i = 0; i < n; ++i) {
+                        if (!eligible[i])
+                            continue;
+                        const Point2 m = offsetAt(motion_half[half[i] ^ 1], bands, half_width, current[i]);
+                        before += std::min(cap, residual[i].x * residual[i].x + residual[i].y * residual[i].y);
+                        after += std::min(cap, std::pow(residual[i].x - m.x, 2) + std::pow(residual[i].y - m.y, 2));
+                    }
+                    if (before > 0.0) {
+                        explained = 1.0 - after / before;
+                        explained_measured = true;
+                    }
+                }
+            } else {
+                for (std::size_t i = 0; i < n; ++i)
+                    if (robust_weight[i] > 0.0) {
+                        accumulate(i, robust_weight[i], a, rhs);
+                        weight_sum += robust_weight[i];
+                    }
+            }
+            z = solve(a, rhs, weight_sum);
             // Reweight by each track's distance from the band model: Tukey's biweight, so
             // that tracks the bands cannot explain (an overlay, a moving object) drop out.
             const std::vector<double> band_motion(z.data(), z.data() + z.size());
             double sx = 0.0, sy = 0.0, sxx = 0.0, sum = 0.0;
             for (std::size_t i = 0; i < n; ++i) {
+                if (!eligible[i])
+                    continue;
                 const Point2 model_i = offsetAt(band_motion, bands, half_width, current[i]);
                 const double r = std::hypot(residual[i].x - model_i.x, residual[i].y - model_i.y);
                 const double u = r / (kTukeyScale * outlier * (round == 0 ? kFirstRoundWidening : 1.0));
@@ -245,7 +336,7 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
             // Footage without wobble (the common case): the plain fit already shows the bands
             // far below the threshold, and robust rounds would not change that.
             const double calm = 0.5 * settings_.threshold;
-            if (automatic && level_ < calm && difference_rms / px640 < calm)
+            if (automatic && !latched_ && level_ < calm && difference_rms / px640 < calm)
                 break;
         }
     }
@@ -276,6 +367,22 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     ++frames_;
     const double alpha = 1.0 / double(std::min(frames_, std::max(1, settings_.settle)));
     level_ += alpha * (difference_rms / px640 - level_);
+    // The stream's decision: the evidence (a frame without enough tracks counts as none)
+    // averaged over twice the settling time, switched with a margin.
+    ++evidence_frames_;
+    const double evidence_alpha = 1.0 / double(std::min(evidence_frames_, std::max(1, 2 * settings_.settle)));
+    evidence_ += evidence_alpha * ((explained_measured ? explained : 0.0) - evidence_);
+    if (automatic) {
+        // A stream whose readout is known to be (near) zero has no rolling shutter to correct.
+        const bool global_shutter = readoutConfidence() >= kReadoutHoldConfidence && readout() < kGlobalShutter;
+        if (!latched_)
+            latched_ = evidence_frames_ >= settings_.decide_frames && evidence_ >= settings_.evidence_on &&
+                       level_ >= settings_.threshold && !global_shutter;
+        else
+            latched_ = evidence_ >= settings_.evidence_off && level_ >= 0.5 * settings_.threshold;
+    }
+    if (enough && settings_.readout <= 0.0)
+        updateReadout(std::vector<double>(z.data(), z.data() + z.size()), motion, band_count, height);
     // A bend far larger than the changes it was summed from is not a vibration's: a bias
     // that repeats from frame to frame (parallax, a moving object the robust weights kept)
     // adds up in the leaky sum. It is held to kMaxBendPerChange times the changes' level
@@ -291,7 +398,9 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
     offsets_ = offsets;
     double gain = 1.0;
     if (automatic)
-        gain = std::clamp((level_ - settings_.threshold) / std::max(1e-9, kRamp * settings_.threshold), 0.0, 1.0);
+        gain = latched_ ? std::clamp((level_ - settings_.threshold) / std::max(1e-9, kRamp * settings_.threshold), 0.0,
+                                     1.0)
+                        : 0.0;
     std::vector<double> applied(unknowns);
     for (std::size_t k = 0; k < unknowns; ++k)
         applied[k] = gain * offsets[k];
@@ -327,7 +436,64 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
         }
         result.wobble = bendRms(applied, band_count);
     }
+    applied_ = any;
     return result;
+}
+
+void RollingShutterEstimator::updateReadout(const std::vector<double> &z, const Similarity &motion, int band_count,
+                                            int height)
+{
+    // A camera whose horizontal speed changes by dv between frames changes the skew of its
+    // rows: the row read at time tau after the mid-exposure moves by -dv * tau, tau = readout
+    // * row / height. The bands' differences z (this frame's offsets minus the previous
+    // frame's, negated) then hold dv * readout / height per row; that skew, regressed on dv
+    // over the stream, gives the readout. The frame's similarity took up the turn half of
+    // it, and the bands hold the rest (x growing with the row, and y with the column in
+    // their turns). A vertical skew stretches the rows, which the similarity's scale and
+    // the bands share in proportions that depend on the scene: it is not used. A
+    // vibration's bend between frames does not follow dv, and stays as noise (it keeps
+    // the estimate from being sure on vibrating flights: bench_rolling_shutter.cpp).
+    ReadoutFit &f = readout_fit_;
+    if (f.has_previous && band_count > 2) {
+        const Bands bands = bandsFor(height, band_count);
+        double cc = 0.0, cx = 0.0, turn = 0.0;
+        for (int b = 0; b < band_count; ++b) {
+            const double c = bands.centre(b);
+            cc += c * c;
+            cx += c * z[std::size_t(b * kUnknownsPerBand)];
+            turn += z[std::size_t(b * kUnknownsPerBand + 2)] / (0.5 * width_);
+        }
+        turn /= band_count;
+        const double dvx = motion.dx - f.previous_motion.dx;
+        const double sx = (cx / cc + turn) * height;
+        if (std::isfinite(sx) && std::abs(dvx) < 0.25 * height) {
+            f.sxy += sx * dvx;
+            f.sxx += dvx * dvx;
+            f.syy += sx * sx;
+            ++f.samples;
+        }
+        if (f.samples >= kReadoutMinSamples && f.sxx > 0.0 && f.confidence < kReadoutHoldConfidence) {
+            const double estimate = f.sxy / f.sxx;
+            const double variance = std::max(0.0, f.syy - estimate * f.sxy) / double(f.samples - 1);
+            const double error = std::sqrt(variance / f.sxx);
+            f.confidence = std::clamp(1.0 - error / kReadoutError, 0.0, 1.0);
+            f.held = std::clamp(estimate, 0.0, 1.0);
+        }
+    }
+    f.previous_motion = motion;
+    f.has_previous = true;
+}
+
+double RollingShutterEstimator::readout() const
+{
+    if (settings_.readout > 0.0)
+        return settings_.readout;
+    return readout_fit_.confidence >= kReadoutHoldConfidence ? readout_fit_.held : 0.0;
+}
+
+double RollingShutterEstimator::readoutConfidence() const
+{
+    return settings_.readout > 0.0 ? 1.0 : readout_fit_.confidence;
 }
 
 } // namespace uavstab

@@ -178,6 +178,8 @@ void Stabilizer::pushHeld(std::unique_ptr<FrameSlot> slot)
         held.stats.skipped = estimate.skipped;
         held.stats.tracks = std::move(estimate.tracks);
         held.stats.row_motion = std::move(estimate.row_motion);
+        held.stats.readout = estimate.readout;
+        held.stats.readout_confidence = estimate.readout_confidence;
         // A lost view (scene cut, flash) starts a new path: smoothing must not pull the
         // frames of one scene towards those of another.
         discontinuity_ = discontinuity_ || estimate.lost;

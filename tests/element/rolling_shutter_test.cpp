@@ -13,6 +13,7 @@
 #include "jitter_metrics.hpp"
 #include "shaky_flight.hpp"
 #include "test_support.hpp"
+#include "uavstab_meta.h"
 #include "wobble_metric.hpp"
 
 using namespace element_test;
@@ -38,6 +39,12 @@ struct Result {
     double wobble_in = 0.0, wobble_out = 0.0;
     double reported = 0.0;  // mean "wobble" of the bus messages
     double coverage_min = 1.0;
+    // Frames the messages say were corrected ("rolling-shutter"), and the same from the
+    // buffers' GstUavStabMeta; the messages' "readout" and "readout-confidence" (last frame,
+    // and whether it ever changed after the first frame it was known on).
+    int rows_moved = 0, rows_moved_meta = 0;
+    double readout = 0.0, readout_confidence = 0.0;
+    int readout_changes = 0;
     std::vector<std::vector<unsigned char>> luma;  // output frames' luma, for comparisons
 };
 
@@ -82,6 +89,10 @@ Result stabilize(const uavstab::synthetic::FlightOptions &options, const std::st
         const double black = double(cv::countNonZero(luma == 16)) / double(luma.total());
         r.coverage_min = std::min(r.coverage_min, 1.0 - black);
         r.luma.emplace_back(luma.clone().reshape(1, 1));
+        const GstUavStabMeta *meta = gst_buffer_get_uav_stab_meta(item.buffer);
+        fail_unless(meta != nullptr);
+        r.rows_moved_meta += meta->rolling_shutter ? 1 : 0;
+        fail_unless(!meta->rolling_shutter || meta->wobble > 0.0);
     }
     int reports = 0;
     while (GstMessage *message = gst_bus_pop_filtered(bus, GST_MESSAGE_ELEMENT)) {
@@ -91,6 +102,17 @@ Result stabilize(const uavstab::synthetic::FlightOptions &options, const std::st
             fail_unless(gst_structure_get_double(s, "wobble", &wobble), "no wobble in the message");
             fail_unless(wobble >= 0.0);
             r.reported += wobble;
+            gboolean moved = FALSE;
+            double readout = -1.0, confidence = -1.0;
+            fail_unless(gst_structure_get_boolean(s, "rolling-shutter", &moved));
+            fail_unless(gst_structure_get_double(s, "readout", &readout));
+            fail_unless(gst_structure_get_double(s, "readout-confidence", &confidence));
+            fail_unless(readout >= 0.0 && readout <= 1.0 && confidence >= 0.0 && confidence <= 1.0);
+            r.rows_moved += moved ? 1 : 0;
+            if (reports > 0 && readout != r.readout)
+                ++r.readout_changes;
+            r.readout = readout;
+            r.readout_confidence = confidence;
             ++reports;
         }
         gst_message_unref(message);
@@ -99,9 +121,11 @@ Result stabilize(const uavstab::synthetic::FlightOptions &options, const std::st
     r.reported /= reports;
     r.wobble_in = in.mean();
     r.wobble_out = out.mean();
-    g_print("readout %.1f, %s: wobble in %.3f px, out %.3f px (%.0f %%); reported %.3f px; coverage min %.4f\n",
+    fail_unless_equals_int(r.rows_moved, r.rows_moved_meta);
+    g_print("readout %.1f, %s: wobble in %.3f px, out %.3f px (%.0f %%); reported %.3f px; coverage min %.4f; "
+            "rows moved in %d frames; readout reported %.3f (confidence %.2f, %d changes)\n",
             options.readout, properties.c_str(), r.wobble_in, r.wobble_out, 100.0 * r.wobble_out / r.wobble_in,
-            r.reported, r.coverage_min);
+            r.reported, r.coverage_min, r.rows_moved, r.readout, r.readout_confidence, r.readout_changes);
 
     gst_element_set_bus(h->element, nullptr);
     gst_object_unref(bus);
@@ -139,6 +163,8 @@ ELEMENT_TEST(the_wobble_of_a_rolling_shutter_is_removed_at_every_delay)
         fail_unless(off.wobble_out > 0.7 * off.wobble_in, "delay %d: off removed wobble (%.3f of %.3f px)", delay,
                     off.wobble_out, off.wobble_in);
         fail_unless(off.reported == 0.0);
+        fail_unless(on.rows_moved >= 80, "delay %d: rows moved in %d frames only", delay, on.rows_moved);
+        fail_unless_equals_int(off.rows_moved, 0);
     }
 }
 
@@ -163,6 +189,11 @@ ELEMENT_TEST(a_known_readout_time_removes_the_wobble_too)
     fail_unless(known.wobble_out <= 0.3 * known.wobble_in, "wobble %.3f px of %.3f px left", known.wobble_out,
                 known.wobble_in);
     fail_unless(known.coverage_min >= 0.995, "border shows (coverage %.4f)", known.coverage_min);
+    // The readout is the property's on every frame (never estimated), and always applied.
+    fail_unless(std::abs(known.readout - 26.7 / (1000.0 / 30.0)) < 1e-6, "readout %.4f reported", known.readout);
+    fail_unless_equals_int(known.readout_changes, 0);
+    fail_unless(known.readout_confidence == 1.0);
+    fail_unless(known.rows_moved >= 89, "rows moved in %d frames", known.rows_moved);
 }
 
 ELEMENT_TEST(footage_without_wobble_comes_out_as_without_the_correction)
@@ -170,6 +201,7 @@ ELEMENT_TEST(footage_without_wobble_comes_out_as_without_the_correction)
     const Result on = stabilize(vibratingFlight(0.0), "");
     const Result off = stabilize(vibratingFlight(0.0), "rolling-shutter=off");
     fail_unless(on.reported == 0.0, "a global shutter was corrected (%.3f px reported)", on.reported);
+    fail_unless_equals_int(on.rows_moved, 0);
     fail_unless_equals_int(int(on.luma.size()), int(off.luma.size()));
     for (std::size_t i = 0; i < on.luma.size(); ++i)
         fail_unless(on.luma[i] == off.luma[i], "frame %d differs with rolling-shutter=auto", int(i));

@@ -38,6 +38,11 @@ struct FrameStats {
     // Rolling shutter: where the input's rows sat relative to its mid-exposure, as the
     // warp undid it (empty: not bent; rolling_shutter.hpp). row_motion.wobble is the size.
     RowMotion row_motion;
+    // The sensor's readout time as a share of the frame time: the known one
+    // (StabilizerConfig::readout_time), else auto's estimate for the stream (0 until it is
+    // sure; it then holds), and how sure (0-1; 1 when known).
+    double readout = 0.0;
+    double readout_confidence = 0.0;
 };
 
 } // namespace uavstab

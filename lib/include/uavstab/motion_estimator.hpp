@@ -36,6 +36,9 @@ struct MotionEstimate {
     // config.rolling_shutter: where this frame's rows sit relative to its mid-exposure
     // (empty: nowhere else); `motion` is then the motion between mid-exposures.
     RowMotion row_motion;
+    // The sensor's readout as a share of the frame time (0: unknown) and how sure it is.
+    double readout = 0.0;
+    double readout_confidence = 0.0;
 };
 
 class ScreenFixedMap;
