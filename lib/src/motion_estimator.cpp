@@ -171,6 +171,8 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
     // fit again. Without that, a wobble of a few px leaves few inliers within the threshold.
     if (config_.rolling_shutter != RollingShutter::Off && plausible(fit.motion, frame.width, frame.height)) {
         RowMotion rows = rolling_shutter_.estimate(to, from, fit.motion, frame.width, frame.height);
+        if (last_rows_.empty())
+            last_rows_ = rolling_shutter_.previousRows();
         if (!rows.empty() || !last_rows_.empty()) {
             std::vector<Point2> mid_from(from.size()), mid_to(to.size());
             for (std::size_t i = 0; i < from.size(); ++i) {

@@ -124,6 +124,7 @@ void RollingShutterEstimator::reset()
     level_ = 0.0;
     frames_ = 0;
     applied_ = false;
+    previous_rows_ = {};
     readout_fit_.has_previous = false;
 }
 
@@ -395,6 +396,7 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
                 v *= limit / bend;
         }
     }
+    const std::vector<double> previous_offsets = std::move(offsets_);
     offsets_ = offsets;
     double gain = 1.0;
     if (automatic)
@@ -435,6 +437,21 @@ RowMotion RollingShutterEstimator::estimate(const std::vector<Point2> &previous,
                                                      applied[std::size_t(b * 3 + 2)], half_width, bands.centre(b)));
         }
         result.wobble = bendRms(applied, band_count);
+    }
+    // Switched on at this frame: the previous frame's rows, as they would have been
+    // corrected, so that the motion between the two mid-exposures is not a jump.
+    previous_rows_ = {};
+    if (any && !applied_ && previous_offsets.size() == unknowns) {
+        std::vector<double> before(unknowns);
+        for (std::size_t k = 0; k < unknowns; ++k)
+            before[k] = gain * previous_offsets[k];
+        for (int b = 0; b < band_count; ++b) {
+            previous_rows_.rows.push_back(bands.centre(b));
+            previous_rows_.offsets.push_back(offsetTransform(before[std::size_t(b * 3)], before[std::size_t(b * 3 + 1)],
+                                                             before[std::size_t(b * 3 + 2)], half_width,
+                                                             bands.centre(b)));
+        }
+        previous_rows_.wobble = bendRms(before, band_count);
     }
     applied_ = any;
     return result;

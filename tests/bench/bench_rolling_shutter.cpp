@@ -3,7 +3,7 @@
 // directly (Stabilizer + pooled output frames, 2 threads, defaults otherwise; the cost
 // section on 1 thread), auto (the default) beside rolling_shutter=off.
 //
-//   uavstab-bench-rolling-shutter --out DIR [--quick] [--data DIR] [--only flights|still|cost]...
+//   uavstab-bench-rolling-shutter --out DIR [--quick] [--data DIR] [--only flights|still|osd|cost]...
 //
 // Sections (markdown fragments in DIR, numbers in DIR/summary.tsv for the report's targets):
 //   flights  rs_flights.md  synthetic 640x360 flights read out over 50 / 90 % of the frame time
@@ -12,9 +12,13 @@
 //                           same flight from a global shutter, coverage
 //   still    rs_still.md    footage without a wobble, auto vs off: global-shutter flights (with
 //                           and without vibration) and the real clips of --data
+//   osd      rs_osd.md      hazy global-shutter flights with a burned-in flight OSD, beside the
+//                           same flights without it, auto vs off (the OSD must not be taken for
+//                           a rolling shutter)
 //   cost     rs_cost.md     CPU per frame at 1920x1080, auto vs off, on a global-shutter and a
 //                           rolling-shutter flight
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -29,8 +33,11 @@
 #include <opencv2/core/utility.hpp>
 
 #include "common.hpp"
+#include "format_conversion.hpp"
 #include "jitter_metrics.hpp"
+#include "osd.hpp"
 #include "shaky_flight.hpp"
+#include "uavstab/row_transforms.hpp"
 #include "uavstab/stabilizer.hpp"
 #include "wobble_metric.hpp"
 
@@ -57,6 +64,7 @@ struct Footage {
     double fps = 30;
     std::vector<FrameBuffer> frames;  // I420
     std::vector<Similarity> truth;    // mid-exposure pose per frame (synthetic only)
+    std::shared_ptr<const synthetic::ShakyFlight> flight;  // each row's pose (synthetic only)
     double wobble_in = kNaN;
 };
 
@@ -104,8 +112,10 @@ Footage renderFlight(int width, int height, int frames, std::uint32_t seed, doub
     o.vibration_hz = v.hz;
     o.vibration_px = v.px;
     o.vibration_deg = v.deg;
-    const synthetic::ShakyFlight flight(o);
+    const auto shared_flight = std::make_shared<const synthetic::ShakyFlight>(o);
+    const synthetic::ShakyFlight &flight = *shared_flight;
     Footage f;
+    f.flight = shared_flight;
     f.name = format("%dx%d readout %.1f, %s, seed %u", width, height, readout, v.label().c_str(), seed);
     f.width = width;
     f.height = height;
@@ -139,9 +149,13 @@ struct Run {
     double wobble_in = kNaN;      // the footage's, for tables
     double wobble_out = kNaN;
     double shake = kNaN;          // residual jitter of the output path after the first second (synthetic)
+    // The same with each output corner taken through its own row's transform to the input
+    // row it shows, and that row's true pose (a rolling-shutter frame has no single pose).
+    double shake_rows = kNaN;
     double coverage_min = 1.0;    // synthetic::coverage of output_to_input (ignores the per-row offsets)
     double picture_min = 1.0;     // 1 - share of black (luma 16) output pixels, worst frame
     double itf = kNaN;            // mean PSNR of consecutive output frames, central 60 %
+    double zoom_max = 1.0;        // largest 1 / scale of output_to_input (crop zoom with the path's scale)
     int corrected = 0;            // frames whose rows were moved (row_motion not empty)
     double reported = 0.0;        // mean row_motion.wobble over the corrected frames
     int unwarped = 0;
@@ -166,6 +180,7 @@ Run stabilize(const Footage &footage, const StabilizerConfig &config, bool measu
     OutputPool pool(PixelFormat::I420, footage.width, footage.height);
     std::vector<cv::Mat> output_lumas;
     std::vector<Similarity> output_path;
+    std::vector<std::array<Point2, 4>> output_corners;
     double itf_sum = 0;
     int itf_pairs = 0;
     auto take = [&](StabilizedFrame f) {
@@ -186,8 +201,23 @@ Run stabilize(const Footage &footage, const StabilizerConfig &config, bool measu
         r.picture_min = std::min(r.picture_min, 1.0 - black);
         const Similarity output_to_input = synthetic::outputToInput(f.stats);
         r.coverage_min = std::min(r.coverage_min, synthetic::coverage(output_to_input, footage.width, footage.height));
+        r.zoom_max = std::max(r.zoom_max, 1.0 / output_to_input.scale);
         if (!footage.truth.empty())
             output_path.push_back(footage.truth[i] * output_to_input);
+        if (footage.flight) {
+            const RowMatrices rows(rollingShutterWarp(f.stats.output_to_input, f.stats.row_motion, footage.width,
+                                                      footage.height),
+                                   footage.width, footage.height);
+            const double cx = 0.5 * (footage.width - 1), cy = 0.5 * (footage.height - 1);
+            std::array<Point2, 4> world;
+            for (int c = 0; c < 4; ++c) {
+                const double x = c % 2 ? footage.width - 1 : 0, y = c / 2 ? footage.height - 1 : 0;
+                const std::array<double, 6> m = rows.at(y);
+                const double qx = m[0] * x + m[1] * y + m[2], qy = m[3] * x + m[4] * y + m[5];
+                world[std::size_t(c)] = footage.flight->truePoseAtRow(int(i), qy).apply({qx - cx, qy - cy});
+            }
+            output_corners.push_back(world);
+        }
         if (!f.stats.row_motion.empty()) {
             ++r.corrected;
             r.reported += f.stats.row_motion.wobble;
@@ -207,6 +237,8 @@ Run stabilize(const Footage &footage, const StabilizerConfig &config, bool measu
     r.reported = r.corrected > 0 ? r.reported / r.corrected : 0.0;
     if (!output_path.empty())
         r.shake = synthetic::residualJitter(output_path, footage.width, footage.height, 8.0, kFirstSecond);
+    if (!output_corners.empty())
+        r.shake_rows = synthetic::cornerJitter(output_corners, 8.0, kFirstSecond);
     return r;
 }
 
@@ -290,17 +322,22 @@ void sectionFlights(const Options &o, GlobalRuns &global)
         "top). The library as it is (`Stabilizer`, 2 threads, defaults: rolling_shutter auto, no readout time), "
         "and rolling_shutter=off on the issue's reference flight (80 %%, 47 Hz) for the before. **Wobble** = "
         "`synthetic::WobbleMeter` (the non-rigid motion between consecutive frames, px), in = the input's, out = "
-        "the output's. **Shake left** = `synthetic::residualJitter` of the output path (true mid-exposure pose x "
-        "output_to_input) after the first second; **vs global** = that divided by the same on the same flight "
+        "the output's. **Shake left** = the residual jitter (`synthetic::cornerJitter`) after the first second of the "
+        "output's corners in the world, each corner taken through its own output row's transform to the input "
+        "row it shows and that row's true pose (a rolling-shutter frame has no single pose); **at mid-exposure** = "
+        "`synthetic::residualJitter` of true mid-exposure pose x output_to_input, as before; **vs global** = that divided by the same on the same flight "
         "rendered with a global shutter (readout 0, same vibration) through the same stabilizer. **Coverage** = "
         "`synthetic::coverage` of output_to_input (it ignores the per-row offsets), **picture** = 1 - the share "
         "of black (luma 16) output pixels; both the worst frame. **Corrected** = frames whose rows were moved "
-        "(row_motion not empty), of %d. Cells: mean / worst seed. Targets: wobble out <= 0.3x in; shake left <= "
-        "1.5x the global-shutter flight's.",
+        "(row_motion not empty), of %d. **Zoom max** = the largest 1 / scale of output_to_input over the frames "
+        "(the crop's zoom with the path's own scale), worst seed. Cells: mean / worst seed. Targets: wobble out "
+        "<= 0.3x in; shake left <= 1.5x the global-shutter flight's; zoom <= 1.10.",
         s.frames, s.seeds.size() > 1 ? "1-3" : "1 (quick)", s.frames));
     Table t({"readout", "vibration", "rolling shutter", "delay", "wobble in px", "wobble out px", "out / in",
-             "shake left px", "global shutter px", "vs global", "coverage min", "picture min", "corrected"});
+             "shake left px", "(at mid-exposure) px", "global shutter px", "vs global", "coverage min",
+             "picture min", "zoom max", "corrected"});
     double wobble_worst = 0, shake_worst = 0, wobble_sum = 0, shake_sum = 0, coverage = 1, picture = 1;
+    double zoom_worst = 1;
     double off_ratio_sum = 0;
     int runs = 0, off_runs = 0;
     std::string wobble_worst_case, shake_worst_case;
@@ -309,7 +346,8 @@ void sectionFlights(const Options &o, GlobalRuns &global)
         if (c.reference)
             modes.push_back(RollingShutter::Off);
         // Per mode (index into `modes`) and delay, over seeds.
-        std::map<std::pair<int, int>, Spread> in, out, ratio, shake, shake_global, shake_ratio, cov, pic, corrected;
+        std::map<std::pair<int, int>, Spread> in, out, ratio, shake, shake_mid, shake_global, shake_ratio, cov, pic,
+            zoom, corrected;
         for (std::uint32_t seed : s.seeds) {
             runGlobal(global, s, c.vibration, seed);
             Footage f = renderFlight(640, 360, s.frames, seed, c.readout, c.vibration);
@@ -320,22 +358,24 @@ void sectionFlights(const Options &o, GlobalRuns &global)
                     const std::pair<int, int> at{int(m), d};
                     const Run r = stabilize(f, configFor(mode, d));
                     const Run &g = global.runs.at(GlobalRuns::key(c.vibration, seed, d, RollingShutter::Auto));
-                    const double wr = r.wobble_out / f.wobble_in, sr = r.shake / g.shake;
+                    const double wr = r.wobble_out / f.wobble_in, sr = r.shake_rows / g.shake_rows;
                     in[at].add(f.wobble_in);
                     out[at].add(r.wobble_out);
                     ratio[at].add(wr);
-                    shake[at].add(r.shake);
-                    shake_global[at].add(g.shake);
+                    shake[at].add(r.shake_rows);
+                    shake_mid[at].add(r.shake);
+                    shake_global[at].add(g.shake_rows);
                     shake_ratio[at].add(sr);
                     cov[at].add(r.coverage_min);
                     pic[at].add(r.picture_min);
+                    zoom[at].add(r.zoom_max);
                     corrected[at].add(r.corrected);
                     const std::string what = format("readout %.1f, %s, delay %d, seed %u", c.readout,
                                                     c.vibration.label().c_str(), d, seed);
-                    std::printf("  %s, %s: wobble %.3f -> %.3f px (%.2fx), shake %.3f px vs global %.3f (%.2fx), "
+                    std::printf("  %s, %s: wobble %.3f -> %.3f px (%.2fx), shake (rows) %.3f px vs global %.3f (%.2fx), "
                                 "coverage %.4f, picture %.4f, corrected %d, reported %.3f px\n",
                                 what.c_str(), mode == RollingShutter::Auto ? "auto" : "off", f.wobble_in,
-                                r.wobble_out, wr, r.shake, g.shake, sr, r.coverage_min, r.picture_min, r.corrected,
+                                r.wobble_out, wr, r.shake_rows, g.shake_rows, sr, r.coverage_min, r.picture_min, r.corrected,
                                 r.reported);
                     std::fflush(stdout);
                     if (mode == RollingShutter::Off) {
@@ -348,6 +388,7 @@ void sectionFlights(const Options &o, GlobalRuns &global)
                     shake_sum += sr;
                     coverage = std::min(coverage, r.coverage_min);
                     picture = std::min(picture, r.picture_min);
+                    zoom_worst = std::max(zoom_worst, r.zoom_max);
                     if (!(wr <= wobble_worst)) {
                         wobble_worst = wr;
                         wobble_worst_case = what;
@@ -365,8 +406,9 @@ void sectionFlights(const Options &o, GlobalRuns &global)
                 t.row({format("%.0f %%", 100 * c.readout), c.vibration.label(),
                        modes[m] == RollingShutter::Auto ? "auto" : "**off**", std::to_string(d), in[at].cell("%.3f"),
                        out[at].cell("%.3f"), ratio[at].cell("%.2fx"), shake[at].cell("%.3f"),
-                       shake_global[at].cell("%.3f"), shake_ratio[at].cell("%.2fx"), format("%.4f", cov[at].least()),
-                       format("%.4f", pic[at].least()), corrected[at].cell("%.0f")});
+                       shake_mid[at].cell("%.3f"), shake_global[at].cell("%.3f"), shake_ratio[at].cell("%.2fx"), format("%.4f", cov[at].least()),
+                       format("%.4f", pic[at].least()), format("%.3f", zoom[at].worst()),
+                       corrected[at].cell("%.0f")});
             }
     }
     frag.table(t);
@@ -380,6 +422,7 @@ void sectionFlights(const Options &o, GlobalRuns &global)
     putResult(o, "rs.flights.off_wobble_ratio_mean", off_ratio_sum / off_runs);
     putResult(o, "rs.flights.coverage_min", coverage);
     putResult(o, "rs.flights.picture_min", picture);
+    putResult(o, "rs.flights.zoom_max", zoom_worst);
 }
 
 // ---- section: footage without a wobble ------------------------------------------------------
@@ -543,6 +586,102 @@ void sectionStill(const Options &o, GlobalRuns &global)
     sectionStillReal(o, frag);
 }
 
+// ---- section: a burned-in OSD on a global shutter --------------------------------------------
+
+Footage renderHazyFlight(int width, int height, int frames, std::uint32_t seed, double strength, bool osd)
+{
+    synthetic::FlightOptions o;
+    o.width = width;
+    o.height = height;
+    o.frames = frames;
+    o.seed = seed;
+    o.noise_px *= strength;
+    o.band_px *= strength;
+    o.rotation_noise_deg *= strength;
+    o.rotation_band_deg *= strength;
+    const synthetic::ShakyFlight flight(o);
+    Footage f;
+    f.width = width;
+    f.height = height;
+    f.frames.resize(std::size_t(frames));
+    cv::parallel_for_(cv::Range(0, frames), [&](const cv::Range &r) {
+        for (int i = r.start; i < r.end; ++i) {
+            cv::Mat bgr = synthetic::hazy(flight.renderBgr(i));
+            if (osd)
+                synthetic::burnOsd(bgr, i);
+            FrameBuffer frame(PixelFormat::I420, width, height);
+            synthetic::bgrToFrame(bgr, frame);
+            f.frames[std::size_t(i)] = std::move(frame);
+        }
+    });
+    for (int i = 0; i < frames; ++i)
+        f.truth.push_back(flight.truePose(i));
+    return f;
+}
+
+void sectionOsd(const Options &o)
+{
+    Fragment frag(o, "rs_osd");
+    const Setup s = setupOf(o);
+    const std::vector<double> strengths{1.0, 2.0, 3.0};
+    struct Size {
+        int width, height;
+        std::vector<int> delays;
+    };
+    const std::vector<Size> sizes{{640, 360, kDelays}, {1280, 720, {20}}};
+    frag.text(format(
+        "Hazy global-shutter flights (ShakyFlight through `synthetic::hazy`: contrast 0.5, blur 2 px; %d frames, "
+        "seeds %s; the shake 1, 2 and 3 times the default's) with the exclude tests' burned-in flight OSD "
+        "(`synthetic::burnOsd`: text bars, speed and altitude boxes with tape ticks, crosshair, pitch ladder), "
+        "beside the same flights without it; defaults (rolling_shutter auto, exclude_static on) and "
+        "rolling_shutter=off. **Jitter** = residual jitter after the first second (px). **Rows moved** = frames "
+        "auto corrected for a rolling shutter (there is none). Cells: mean / worst seed. Targets: OSD (auto) <= "
+        "1.1x + 0.1 px of no OSD; auto within 5 %% of off.",
+        s.frames, s.seeds.size() > 1 ? "1-3" : "1 (quick)"));
+    Table t({"size", "shake", "delay", "no OSD px", "OSD auto px", "OSD off px", "OSD auto / (1.1 no OSD + 0.1)",
+             "auto / off - 1 (worst)", "rows moved (auto)"});
+    double target_worst = 0, diff_worst = 0;
+    int moved_total = 0;
+    for (const Size &size : sizes)
+        for (double strength : strengths) {
+            std::map<int, Spread> clean, with, off, target;
+            std::map<int, double> diff;
+            std::map<int, int> moved;
+            for (std::uint32_t seed : s.seeds) {
+                const Footage plain = renderHazyFlight(size.width, size.height, s.frames, seed, strength, false);
+                const Footage osd = renderHazyFlight(size.width, size.height, s.frames, seed, strength, true);
+                for (int d : size.delays) {
+                    const Run a = stabilize(plain, configFor(RollingShutter::Auto, d), false);
+                    const Run b = stabilize(osd, configFor(RollingShutter::Auto, d), false);
+                    const Run c = stabilize(osd, configFor(RollingShutter::Off, d), false);
+                    clean[d].add(a.shake);
+                    with[d].add(b.shake);
+                    off[d].add(c.shake);
+                    const double tr = b.shake / (1.1 * a.shake + 0.1), rel = b.shake / c.shake - 1.0;
+                    target[d].add(tr);
+                    if (std::abs(rel) >= std::abs(diff[d]))
+                        diff[d] = rel;
+                    moved[d] += b.corrected + a.corrected;
+                    target_worst = std::max(target_worst, tr);
+                    diff_worst = std::max(diff_worst, std::abs(rel));
+                    moved_total += b.corrected + a.corrected;
+                    std::printf("  osd %dx%d shake x%.0f seed %u delay %d: no OSD %.3f, OSD auto %.3f (rows moved %d), "
+                                "OSD off %.3f px\n",
+                                size.width, size.height, strength, seed, d, a.shake, b.shake, b.corrected, c.shake);
+                    std::fflush(stdout);
+                }
+            }
+            for (int d : size.delays)
+                t.row({format("%dx%d", size.width, size.height), format("x%.0f", strength), std::to_string(d),
+                       clean[d].cell("%.3f"), with[d].cell("%.3f"), off[d].cell("%.3f"), target[d].cell("%.2f"),
+                       format("%+.1f %%", 100 * diff[d]), std::to_string(moved[d])});
+        }
+    frag.table(t);
+    putResult(o, "rs.osd.target_ratio_worst", target_worst);
+    putResult(o, "rs.osd.auto_off_diff_worst", diff_worst);
+    putResult(o, "rs.osd.rows_moved", moved_total);
+}
+
 // ---- section: cost at 1080p -----------------------------------------------------------------
 
 struct Cost {
@@ -655,7 +794,7 @@ int main(int argc, char **argv)
     try {
         const Options o = parseOptions(
             argc, argv,
-            "usage: uavstab-bench-rolling-shutter --out DIR [--quick] [--data DIR] [--only flights|still|cost]...\n");
+            "usage: uavstab-bench-rolling-shutter --out DIR [--quick] [--data DIR] [--only flights|still|osd|cost]...\n");
         GlobalRuns global;
         const auto t0 = Clock::now();
         auto timed = [&](const char *name, const std::function<void()> &section) {
@@ -668,6 +807,8 @@ int main(int argc, char **argv)
             timed("flights", [&] { sectionFlights(o, global); });
         if (o.wants("still"))
             timed("still", [&] { sectionStill(o, global); });
+        if (o.wants("osd"))
+            timed("osd", [&] { sectionOsd(o); });
         if (o.wants("cost"))
             timed("cost", [&] { sectionCost(o); });
         std::printf("[rolling shutter: %.0f s]\n", secondsBetween(t0, Clock::now()));

@@ -11,19 +11,14 @@ Similarity outputToInput(const FrameStats &stats)
     return stats.correction.inverse() * Similarity{0.0, 0.0, 0.0, 1.0 / stats.zoom};
 }
 
-double residualJitter(const std::vector<Similarity> &path, int width, int height, double sigma, std::size_t first)
+double cornerJitter(const std::vector<std::array<Point2, 4>> &corners, double sigma, std::size_t first)
 {
-    const std::size_t n = path.size();
+    const std::size_t n = corners.size();
     if (n < 2 || first >= n)
         return 0.0;
-    const double hx = (width - 1) * 0.5, hy = (height - 1) * 0.5;
-    const std::array<Point2, 4> corners{{{-hx, -hy}, {hx, -hy}, {-hx, hy}, {hx, hy}}};
     const int radius = int(std::ceil(3 * sigma));
     double sum2 = 0.0;
-    for (const Point2 &corner : corners) {
-        std::vector<Point2> track(n);
-        for (std::size_t i = 0; i < n; ++i)
-            track[i] = path[i].apply(corner);
+    for (std::size_t c = 0; c < 4; ++c) {
         for (std::size_t i = first; i < n; ++i) {
             // Gaussian-weighted local line: the Gaussian low-pass wherever the window is
             // whole, and no bias on a pan where the clip's ends cut it short.
@@ -33,7 +28,7 @@ double residualJitter(const std::vector<Similarity> &path, int width, int height
                 if (j < 0 || j >= long(n))
                     continue;
                 const double w = std::exp(-0.5 * k * k / (sigma * sigma));
-                const Point2 &p = track[std::size_t(j)];
+                const Point2 &p = corners[std::size_t(j)][c];
                 s0 += w;
                 s1 += w * k;
                 s2 += w * k * k;
@@ -46,11 +41,22 @@ double residualJitter(const std::vector<Similarity> &path, int width, int height
             const bool line = det > 1e-9 * s0 * s0;
             const double lx = line ? (s2 * x0 - s1 * x1) / det : x0 / s0;
             const double ly = line ? (s2 * y0 - s1 * y1) / det : y0 / s0;
-            const double ex = track[i].x - lx, ey = track[i].y - ly;
+            const double ex = corners[i][c].x - lx, ey = corners[i][c].y - ly;
             sum2 += ex * ex + ey * ey;
         }
     }
     return std::sqrt(sum2 / (4.0 * double(n - first)));
+}
+
+double residualJitter(const std::vector<Similarity> &path, int width, int height, double sigma, std::size_t first)
+{
+    const double hx = (width - 1) * 0.5, hy = (height - 1) * 0.5;
+    const std::array<Point2, 4> frame_corners{{{-hx, -hy}, {hx, -hy}, {-hx, hy}, {hx, hy}}};
+    std::vector<std::array<Point2, 4>> corners(path.size());
+    for (std::size_t i = 0; i < path.size(); ++i)
+        for (std::size_t c = 0; c < 4; ++c)
+            corners[i][c] = path[i].apply(frame_corners[c]);
+    return cornerJitter(corners, sigma, first);
 }
 
 double intendedPathError(const std::vector<Similarity> &output_path, const std::vector<Similarity> &intended_path,

@@ -1,6 +1,7 @@
 // Quality measures on clips whose true camera path is known.
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "uavstab/frame_stats.hpp"
@@ -21,6 +22,10 @@ Similarity outputToInput(const FrameStats &stats);
 // first = 30 it measures the steady state, without the first second's start-up.
 double residualJitter(const std::vector<Similarity> &world_from_frame, int width, int height, double sigma = 8.0,
                       std::size_t first = 0);
+// The same from the four output corners' world positions per frame (top-left, top-right,
+// bottom-left, bottom-right), for frames that have no single pose: a rolling shutter's,
+// whose output rows each show the world as their input row's own pose saw it.
+double cornerJitter(const std::vector<std::array<Point2, 4>> &corners, double sigma = 8.0, std::size_t first = 0);
 
 // Error against the intended (shake-free) path, in px: how far the output strays from the
 // path the pilot meant to fly, up to a constant. output_path[i] maps output-frame centred

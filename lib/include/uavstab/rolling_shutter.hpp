@@ -113,6 +113,9 @@ public:
     double residualLevel() const { return level_; }
     // Whether the last frame's rows were moved (a known readout, or auto found a wobble).
     bool applied() const { return applied_; }
+    // When the correction switched on at the last frame: the frame before's rows as it would
+    // have corrected them (else empty), for the motion between the two mid-exposures.
+    const RowMotion &previousRows() const { return previous_rows_; }
     // Auto: the averaged share of the held-out tracks' residual the bands explain.
     double evidence() const { return evidence_; }
     // The readout in use, as a share of the frame time: the known one (settings), else
@@ -144,6 +147,7 @@ private:
     int evidence_frames_ = 0;
     bool latched_ = false;  // auto: the stream's correction is on
     bool applied_ = false;
+    RowMotion previous_rows_;
     int frames_ = 0;
     ReadoutFit readout_fit_;
 };
