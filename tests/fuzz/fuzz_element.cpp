@@ -29,6 +29,7 @@
 #include <vector>
 
 #include <gst/gst.h>
+#include <unistd.h>
 
 #include "chaos_rig.hpp"
 
@@ -404,12 +405,43 @@ extern "C" const char *__lsan_default_suppressions()
     return "leak:libglib-2.0.so\nleak:libgobject-2.0.so\nleak:libgstreamer-1.0.so\n";
 }
 
+// A fresh directory with a link to the system's core-tracers plugin and nothing else.
+static std::string privatePluginDir()
+{
+    gchar *dir = g_dir_make_tmp("uavstab-fuzz-XXXXXX", nullptr);
+    if (!dir) {
+        std::fprintf(stderr, "fuzz_element: no temporary directory\n");
+        std::abort();
+    }
+    std::string path(dir);
+    g_free(dir);
+    const std::string plugin = std::string(UAVSTAB_GST_PLUGINS_DIR) + "/libgstcoretracers.so";
+    if (symlink(plugin.c_str(), (path + "/libgstcoretracers.so").c_str()) != 0) {
+        std::fprintf(stderr, "fuzz_element: cannot link %s\n", plugin.c_str());
+        std::abort();
+    }
+    static std::string removed_at_exit;
+    removed_at_exit = path;
+    std::atexit([] {
+        for (const char *name : {"/registry.bin", "/libgstcoretracers.so"})
+            std::remove((removed_at_exit + name).c_str());
+        rmdir(removed_at_exit.c_str());
+    });
+    return path;
+}
+
 extern "C" int LLVMFuzzerInitialize(int *, char ***)
 {
     // The plugin is linked in (instrumented for coverage) and registered here; no other
     // copy is looked for, and the leaks tracer watches every object.
     g_unsetenv("GST_PLUGIN_PATH");
     g_setenv("GST_REGISTRY_FORK", "no", TRUE);
+    // A registry of its own holding only the core tracers: a scan of every system plugin
+    // in this process (a fresh machine has no registry cache) runs their init code, whose
+    // one-time allocations (fontconfig's, from pango) LeakSanitizer would report.
+    static const std::string plugin_dir = privatePluginDir();
+    g_setenv("GST_PLUGIN_SYSTEM_PATH_1_0", plugin_dir.c_str(), TRUE);
+    g_setenv("GST_REGISTRY_1_0", (plugin_dir + "/registry.bin").c_str(), TRUE);
     g_setenv("GST_TRACERS", "leaks", TRUE);
     if (!g_getenv("GST_DEBUG"))
         g_setenv("GST_DEBUG", "0", TRUE);
@@ -420,8 +452,12 @@ extern "C" int LLVMFuzzerInitialize(int *, char ***)
     // One run to make the class data and caches that live on, then watch for leaks.
     static const std::uint8_t warm_up[] = {1, 2, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 0, 0, 0, 0, 0, 1, 2, 3};
     runInput(warm_up, sizeof warm_up);
-    if (GstTracer *tracer = leaksTracer())
-        g_signal_emit_by_name(tracer, "activity-start-tracking");
+    GstTracer *tracer = leaksTracer();
+    if (!tracer) {
+        std::fprintf(stderr, "fuzz_element: the leaks tracer did not load from %s\n", UAVSTAB_GST_PLUGINS_DIR);
+        std::abort();
+    }
+    g_signal_emit_by_name(tracer, "activity-start-tracking");
     leftAlive();
     return 0;
 }
