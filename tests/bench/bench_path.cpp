@@ -6,6 +6,7 @@
 //
 //   uavstab-bench-path [--planner l1|optimal|gaussian|box]... [--case NAME]... [--seeds N]
 //                      [--strengths 0.5,1,2] [--delays 0,5,10,20] [--frames N] [--out FILE.md]
+//                      [--l1 name=value,...]
 //
 // Cases (ShakyFlight paths; strength scales every jitter amplitude):
 //   hover360   the default drifting flight, 640x360
@@ -19,9 +20,13 @@
 //              roll sway, 4 px of 2-8 Hz shake, 1280x720
 // Columns: jitter = RMS high-pass (Gaussian sigma 8) of the output frame's corners against
 // the intended path (output minus intended: a smooth lag is not shake), after the first
-// second; first s = the same over the first second alone; max dev = the largest distance
-// of a corner from its mean place relative to the intended path (how far the output strays,
-// px); input = the same jitter of the camera itself; coverage min; plan ms mean and p99.
+// second; first s = the same over the first second alone; lag = the largest distance of a
+// corner from its mean place relative to the intended path (how far the output strays or
+// trails, px, worst seed); whip = the output's fastest corner move over the intended path's
+// fastest, after the first second (synthetic::pathWhip; above 1 the output rushes to catch
+// up; 0 where the intended view stands still; worst seed); input = the same jitter of the
+// camera itself; coverage min; plan ms mean and p99.
+//   --l1 name=value,... changes the l1 planner's settings, to A/B one of its terms.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -37,6 +42,7 @@
 
 #include "jitter_metrics.hpp"
 #include "shaky_flight.hpp"
+#include "uavstab/l1_path_planner.hpp"
 #include "uavstab/path_planner.hpp"
 
 using namespace uavstab;
@@ -124,8 +130,49 @@ Case makeCase(const std::string &name, std::uint32_t seed, double strength, int 
 }
 
 struct Result {
-    double jitter = 0, first_second = 0, max_dev = 0, input = 0, coverage_min = 1, ms_mean = 0, ms_p99 = 0;
+    double jitter = 0, first_second = 0, max_dev = 0, whip = 0, input = 0, coverage_min = 1, ms_mean = 0, ms_p99 = 0;
 };
+
+// --l1 name=value,...: the l1 planner's settings changed from their defaults, for A/B runs of
+// its terms (e.g. --l1 steady_pull=0 switches the steady pull off).
+L1PathPlanner::Settings l1Settings(const std::string &spec)
+{
+    L1PathPlanner::Settings s;
+    std::map<std::string, double *> reals{
+        {"velocity_weight", &s.velocity_weight}, {"acceleration_weight", &s.acceleration_weight},
+        {"jerk_weight", &s.jerk_weight},         {"edge_weight", &s.edge_weight},
+        {"follow_smoothness", &s.follow_smoothness}, {"catch_up_threshold", &s.catch_up_threshold},
+        {"shake_margin", &s.shake_margin},       {"short_tube", &s.short_tube},
+        {"steady_pull", &s.steady_pull},         {"steady_from", &s.steady_from},
+        {"steady_full", &s.steady_full},         {"stiffness", &s.stiffness},
+        {"young_slope_prior", &s.young_slope_prior}, {"translation_reserve", &s.translation_reserve},
+        {"scale_share", &s.scale_share}, {"speed_weight", &s.speed_weight}};
+    std::map<std::string, int *> ints{{"rounds", &s.rounds},
+                                      {"catch_up_window", &s.catch_up_window},
+                                      {"catch_up_max_lookahead", &s.catch_up_max_lookahead},
+                                      {"full_tube_lookahead", &s.full_tube_lookahead},
+                                      {"steady_window", &s.steady_window},
+                                      {"extension", &s.extension},
+                                      {"prediction_frames", &s.prediction_frames}};
+    std::stringstream ss(spec);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+        const std::size_t eq = item.find('=');
+        const std::string key = item.substr(0, eq);
+        const double value = eq == std::string::npos ? 0.0 : std::stod(item.substr(eq + 1));
+        if (reals.count(key))
+            *reals[key] = value;
+        else if (ints.count(key))
+            *ints[key] = int(value);
+        else {
+            std::fprintf(stderr, "uavstab-bench-path: no l1 setting named %s\n", key.c_str());
+            std::exit(2);
+        }
+    }
+    return s;
+}
+
+std::string l1_spec;  // --l1
 
 Result run(const Case &c, PlannerKind kind, int delay)
 {
@@ -138,6 +185,8 @@ Result run(const Case &c, PlannerKind kind, int delay)
     config.planner = kind;
     config.delay = delay;
     std::unique_ptr<PathPlanner> planner = makePathPlanner(config);
+    if (kind == PlannerKind::L1 && !l1_spec.empty())
+        planner = std::make_unique<L1PathPlanner>(l1Settings(l1_spec));
     std::vector<Similarity> output_path;
     std::vector<double> ms;
     Result r;
@@ -168,6 +217,7 @@ Result run(const Case &c, PlannerKind kind, int delay)
         r.first_second = synthetic::intendedPathJitter(first, intended, w, h);
     }
     r.max_dev = synthetic::intendedPathMaxDeviation(output_path, intended, w, h);
+    r.whip = synthetic::pathWhip(output_path, intended, w, h, std::size_t(fps));
     double sum = 0;
     for (double v : ms)
         sum += v;
@@ -217,9 +267,10 @@ int main(int argc, char **argv)
         else if (a == "--delays") delays = numbers(v), ++i;
         else if (a == "--frames") frames = std::atoi(v), ++i;
         else if (a == "--out") out = v, ++i;
+        else if (a == "--l1") l1_spec = v, ++i;
         else {
             std::fprintf(stderr, "usage: uavstab-bench-path [--planner l1|optimal|gaussian|box]... [--case NAME]... "
-                                 "[--seeds N] [--strengths a,b] [--delays a,b] [--frames N] [--out FILE.md]\n");
+                                 "[--seeds N] [--strengths a,b] [--delays a,b] [--frames N] [--out FILE.md] [--l1 name=value,...]\n");
             return 2;
         }
     }
@@ -238,11 +289,13 @@ int main(int argc, char **argv)
           "roll at 1280x720; man360/man720 = the manoeuvre flight; sway720 = a handheld camera meant to be still "
           "(20 / 12 px RMS of 0.3-1.2 Hz sway, 0.4 deg of roll sway, 4 px of shake), larger than the crop "
           "room. **Jitter** = `synthetic::intendedPathJitter` (high-pass of the output against the intended path, "
-          "after the first second); **first second** the same over the first second alone; **max dev** the "
-          "largest distance of an output corner from its mean place relative to the intended path; **input** the "
+          "after the first second); **first second** the same over the first second alone; **lag** the "
+          "largest distance of an output corner from its mean place relative to the intended path (worst seed); "
+          "**whip** the output's fastest corner move over the intended path's fastest after the first second "
+          "(corners smoothed with a Gaussian of sigma 2 frames; 0 where the intended view stands still; worst seed); **input** the "
           "camera's own jitter; plan ms per frame on one thread (mean / p99 over seeds).\n\n";
-    md << "| case | strength | planner | delay | jitter px (mean / worst seed) | first second px | max dev px | "
-          "input jitter px | coverage min | plan ms mean / p99 |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    md << "| case | strength | planner | delay | jitter px (mean / worst seed) | first second px | lag px | whip | "
+          "input jitter px | coverage min | plan ms mean / p99 |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const std::string &name : cases)
         for (double strength : strengths)
             for (const std::string &pl : planners)
@@ -256,6 +309,7 @@ int main(int argc, char **argv)
                         mean.jitter += r.jitter / seeds;
                         mean.first_second += r.first_second / seeds;
                         mean.max_dev = std::max(mean.max_dev, r.max_dev);
+                        mean.whip = std::max(mean.whip, r.whip);
                         mean.input += r.input / seeds;
                         mean.coverage_min = std::min(mean.coverage_min, r.coverage_min);
                         mean.ms_mean += r.ms_mean / seeds;
@@ -264,9 +318,9 @@ int main(int argc, char **argv)
                     }
                     char line[512];
                     std::snprintf(line, sizeof line,
-                                  "| %s | %.1fx | %s | %d | %.3f / %.3f | %.3f | %.1f | %.3f | %.4f | %.3f / %.3f |\n",
+                                  "| %s | %.1fx | %s | %d | %.3f / %.3f | %.3f | %.1f | %.2f | %.3f | %.4f | %.3f / %.3f |\n",
                                   name.c_str(), strength, pl.c_str(), int(d), mean.jitter, worst, mean.first_second,
-                                  mean.max_dev, mean.input, mean.coverage_min, mean.ms_mean, p99);
+                                  mean.max_dev, mean.whip, mean.input, mean.coverage_min, mean.ms_mean, p99);
                     md << line;
                     std::fputs(line, stdout);
                     std::fflush(stdout);

@@ -124,6 +124,51 @@ double intendedPathMaxDeviation(const std::vector<Similarity> &output_path,
     return worst;
 }
 
+namespace {
+// The fastest smoothed corner step of a path, over frames [first, n).
+double fastestCornerStep(const std::vector<Similarity> &path, int width, int height, std::size_t first, double sigma)
+{
+    const std::size_t n = path.size();
+    const double hx = (width - 1) * 0.5, hy = (height - 1) * 0.5;
+    const int radius = int(std::ceil(3 * sigma));
+    double fastest = 0.0;
+    for (const Point2 corner : {Point2{-hx, -hy}, Point2{hx, -hy}, Point2{-hx, hy}, Point2{hx, hy}}) {
+        std::vector<Point2> p(n), smooth(n);
+        for (std::size_t i = 0; i < n; ++i)
+            p[i] = path[i].apply(corner);
+        for (std::size_t i = 0; i < n; ++i) {
+            double sw = 0, sx = 0, sy = 0;
+            for (int k = -radius; k <= radius; ++k) {
+                const long j = long(i) + k;
+                if (j < 0 || j >= long(n))
+                    continue;
+                const double w = std::exp(-0.5 * k * k / (sigma * sigma));
+                sw += w;
+                sx += w * p[std::size_t(j)].x;
+                sy += w * p[std::size_t(j)].y;
+            }
+            smooth[i] = {sx / sw, sy / sw};
+        }
+        // Steps whose smoothing window lies whole inside the clip: a cut window bends the ends.
+        for (std::size_t i = std::max<std::size_t>(first, std::size_t(radius) + 1); i + std::size_t(radius) < n; ++i)
+            fastest = std::max(fastest, std::hypot(smooth[i].x - smooth[i - 1].x, smooth[i].y - smooth[i - 1].y));
+    }
+    return fastest;
+}
+} // namespace
+
+double pathWhip(const std::vector<Similarity> &output_path, const std::vector<Similarity> &intended_path, int width,
+                int height, std::size_t first, double sigma, double still)
+{
+    const std::size_t n = std::min(output_path.size(), intended_path.size());
+    const std::vector<Similarity> out(output_path.begin(), output_path.begin() + long(n));
+    const std::vector<Similarity> intended(intended_path.begin(), intended_path.begin() + long(n));
+    const double pilot = fastestCornerStep(intended, width, height, first, sigma);
+    if (pilot < still)
+        return 0.0;
+    return fastestCornerStep(out, width, height, first, sigma) / pilot;
+}
+
 double coverage(const Similarity &output_to_input, int width, int height)
 {
     constexpr int kGrid = 64;

@@ -50,6 +50,15 @@ double intendedPathJitter(const std::vector<Similarity> &output_path, const std:
 double intendedPathMaxDeviation(const std::vector<Similarity> &output_path,
                                 const std::vector<Similarity> &intended_path, int width, int height);
 
+// The whip: the output view's fastest move over the world against the intended view's
+// fastest. Each frame corner's world position (output_path[i] and intended_path[i] applied
+// to it) is smoothed lightly (Gaussian, sigma frames, so that leftover shake does not count
+// as speed); the speed of a frame is its fastest corner's step. Frames from `first` on.
+// Above 1 the output rushes past the pilot's own speed to catch up; 0 where the intended
+// view never moves faster than `still` px per frame (a hover has no speed to compare).
+double pathWhip(const std::vector<Similarity> &output_path, const std::vector<Similarity> &intended_path, int width,
+                int height, std::size_t first = 0, double sigma = 2.0, double still = 0.5);
+
 // Share of the output frame that shows picture: output pixels whose source lies inside
 // the input frame (sampled on a grid).
 double coverage(const Similarity &output_to_input, int width, int height);

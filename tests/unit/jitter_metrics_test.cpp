@@ -94,3 +94,25 @@ TEST(ResidualJitter, LeavingOutTheFirstFramesDropsTheStartUpOnly)
     EXPECT_DOUBLE_EQ(residualJitter(kinked, 640, 360, 8.0, 0), kinked_all);
     EXPECT_EQ(residualJitter(kinked, 640, 360, 8.0, std::size_t(n)), 0.0);
 }
+
+// The whip: a path that stands still and then makes up the pilot's move at twice the
+// pilot's speed scores 2; following the move exactly scores 1, and through shake of a few
+// pixels still about 1 (the light smoothing); a hover has no speed to compare.
+TEST(PathWhip, CatchingUpAtTwiceThePilotsSpeedScoresTwo)
+{
+    const int n = 200;
+    std::vector<Similarity> intended, follower, catch_up, shaky, still;
+    for (int i = 0; i < n; ++i) {
+        const double x = i < 50 ? 0.0 : i < 150 ? 2.0 * (i - 50) : 200.0;  // a 2 px/frame pan
+        const double late = i < 100 ? 0.0 : i < 150 ? 4.0 * (i - 100) : 200.0;  // 4 px/frame, late
+        intended.push_back({x, 0.0, 0.0, 1.0});
+        follower.push_back({x, 0.0, 0.0, 1.0});
+        catch_up.push_back({late, 0.0, 0.0, 1.0});
+        shaky.push_back({x + 1.5 * std::sin(2.0 * kPi * i / 4.0), 0.0, 0.0, 1.0});
+        still.push_back({0.0, 0.0, 0.0, 1.0});
+    }
+    EXPECT_NEAR(pathWhip(follower, intended, 640, 360), 1.0, 1e-9);
+    EXPECT_NEAR(pathWhip(catch_up, intended, 640, 360), 2.0, 0.05);
+    EXPECT_NEAR(pathWhip(shaky, intended, 640, 360), 1.0, 0.15);
+    EXPECT_EQ(pathWhip(shaky, still, 640, 360), 0.0);
+}
