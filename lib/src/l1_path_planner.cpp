@@ -50,6 +50,9 @@ std::vector<double> solveAxis(const AxisProblem &p, const L1PathPlanner::Setting
                 row_weights[r] = 1.0 / std::max(std::abs(d[r]), eps);
             addDifferences(qp, p.past, order, weights[order - 1], &row_weights);
         }
+        // The speed's square: L1 norms charge a move by its length alone, so standing still
+        // and then rushing after the camera costs them what moving with it does.
+        addDifferences(qp, p.past, 1, s.speed_weight, nullptr);
         for (std::size_t j = 0; j < n; ++j) {
             qp.addQ(j, j, kRidge);
             qp.addG(j, -kRidge * p.camera[j]);
@@ -189,12 +192,15 @@ PlannedFrame L1PathPlanner::plan(const PlanRequest &request)
         shake_frames_ = int(known) - 1;
     }
 
-    // Steady moves: the followed path's mean velocity against its spread, over the last
-    // steady_window committed frames. x and y count together (a drift along a curve is
-    // steady as a whole); a steady flight also has its turns and climbs followed.
+    // Steady moves: the followed path's mean velocity against its spread, over the newest
+    // steady_window frames of its committed past and its known look-ahead. The look-ahead
+    // counts so that a drift the delay already shows is followed from where it shows, not
+    // ridden at the tube's edge until the past proves it steady. x and y count together (a
+    // drift along a curve is steady as a whole); a steady flight also has its turns and
+    // climbs followed.
     auto steadiness = [&](int a) {
         std::vector<double> f = follow_history[a];
-        f.push_back(problems[a].follow[0]);
+        f.insert(f.end(), problems[a].follow.begin(), problems[a].follow.begin() + long(known));
         const std::size_t w =
             std::min(f.size() > kSteadyLag ? f.size() - kSteadyLag : 0, std::size_t(std::max(2, settings_.steady_window)));
         if (w < 10)

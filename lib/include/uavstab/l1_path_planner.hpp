@@ -23,9 +23,10 @@
 // 2. The crop. The smallest, smoothest change to the L1 path that keeps every known frame's
 //    crop window inside that frame (fitAxis in path_terms.hpp): no border ever shows.
 //
-// Deliberate moves. A steady move (the followed path's velocity over the last second far
-// above its spread: a drift, a pan, a slow yaw) is followed, not ridden: the path is pulled
-// towards the followed path (an L1 pull, `steady_pull`), so that it does not trail the
+// Deliberate moves. A steady move (the followed path's velocity over its newest second,
+// the look-ahead included, far above its spread: a drift, a pan, a slow yaw) is followed,
+// not ridden: the path is pulled towards the followed path (an L1 pull, `steady_pull`),
+// so that it does not trail the
 // move at the tube's edge and then kink where the move turns. Handheld sway and walking
 // are not steady, and keep the still path. At short delays, where the look-ahead cannot
 // see a move coming, the followed path catches up with a move the camera keeps to one side
@@ -65,6 +66,8 @@ public:
         double velocity_weight = 10.0;
         double acceleration_weight = 1.0;
         double jerk_weight = 100.0;
+        // Stage 1's weight of the squared velocity (speed_weight/2 * sum (D1 p)^2, px^2).
+        double speed_weight = 10.0;
         // Stage 1's cost per px of leaving the crop room (stage 2 makes the room hard).
         double edge_weight = 10.0;
         double epsilon = 0.01;  // px: the reweighting's floor
@@ -84,8 +87,8 @@ public:
         int full_tube_lookahead = 20;
         // Steady moves: the L1 pull towards the followed path, in full where the
         // steadiness (|mean velocity| / (spread + steady_floor px at 640 px of width),
-        // velocities over 10 frames, the last steady_window frames) reaches steady_full,
-        // none below steady_from.
+        // velocities over 10 frames, the newest steady_window frames of the committed past
+        // and the look-ahead) reaches steady_full, none below steady_from.
         double steady_pull = 10.0;
         double steady_from = 3.0;
         double steady_full = 6.0;
