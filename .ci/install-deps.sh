@@ -13,7 +13,8 @@ test=(libgtest-dev gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1
       gstreamer1.0-plugins-base-apps  # gst-discoverer-1.0: samples/ts_klv_stabilize.sh (element_klv test)
       # element_gl_render: GStreamer's GL elements on Mesa's software OpenGL, in an Xvfb
       gstreamer1.0-gl libegl-mesa0 libgl1-mesa-dri libglx-mesa0 xvfb xauth)
-demo=(gstreamer1.0-plugins-base-apps gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-plugins-ugly gstreamer1.0-libav)
+demo=(gstreamer1.0-plugins-base-apps gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-plugins-ugly gstreamer1.0-libav
+      gstreamer1.0-x fonts-dejavu-core)  # textoverlay: the side-by-side's labels
 fuzz=(clang libclang-rt-14-dev)
 bench=(ffmpeg libopencv-features2d-dev libopencv-calib3d-dev gstreamer1.0-libav time
        linux-perf valgrind)  # tests/bench/profile.sh: perf record, callgrind where perf cannot sample

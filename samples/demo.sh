@@ -32,12 +32,13 @@ else
 fi
 
 encode="videoconvert ! x264enc speed-preset=veryfast ! mp4mux"
+label() { echo "textoverlay text=\"$1\" valignment=top halignment=left font-desc=\"Sans Bold 28\" shaded-background=true"; }
 echo "stabilizing with: $source ! uavstabilize ! ..."
 build/samples/uavstab-run "${truth[@]}" "$source ! tee name=in \
-  in. ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=0 ! side.sink_0 \
+  in. ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=0 ! $(label input) ! side.sink_0 \
   in. ! queue ! uavstabilize ! tee name=stab \
   stab. ! queue ! $encode ! filesink location=$out/stabilized.mp4 \
-  stab. ! queue ! side.sink_1 \
+  stab. ! queue ! $(label stabilized) ! side.sink_1 \
   compositor name=side sink_1::xpos=$width ! $encode ! filesink location=$out/side_by_side.mp4"
 rm -f "$out/shaky.y4m"
-echo "wrote $out/stabilized.mp4 and $out/side_by_side.mp4 (left: input, right: stabilized)"
+echo "wrote $out/stabilized.mp4 and $out/side_by_side.mp4 (left: input, right: stabilized, each labelled)"
