@@ -48,15 +48,24 @@ double cornerJitter(const std::vector<std::array<Point2, 4>> &corners, double si
     return std::sqrt(sum2 / (4.0 * double(n - first)));
 }
 
-double residualJitter(const std::vector<Similarity> &path, int width, int height, double sigma, std::size_t first)
+namespace {
+// Where the frame's four corners land under each pose of `path`, its first n poses.
+std::vector<std::array<Point2, 4>> pathCorners(const std::vector<Similarity> &path, int width, int height,
+                                               std::size_t n)
 {
     const double hx = (width - 1) * 0.5, hy = (height - 1) * 0.5;
     const std::array<Point2, 4> frame_corners{{{-hx, -hy}, {hx, -hy}, {-hx, hy}, {hx, hy}}};
-    std::vector<std::array<Point2, 4>> corners(path.size());
-    for (std::size_t i = 0; i < path.size(); ++i)
+    std::vector<std::array<Point2, 4>> corners(std::min(n, path.size()));
+    for (std::size_t i = 0; i < corners.size(); ++i)
         for (std::size_t c = 0; c < 4; ++c)
             corners[i][c] = path[i].apply(frame_corners[c]);
-    return cornerJitter(corners, sigma, first);
+    return corners;
+}
+} // namespace
+
+double residualJitter(const std::vector<Similarity> &path, int width, int height, double sigma, std::size_t first)
+{
+    return cornerJitter(pathCorners(path, width, height, path.size()), sigma, first);
 }
 
 double intendedPathError(const std::vector<Similarity> &output_path, const std::vector<Similarity> &intended_path,
@@ -125,17 +134,15 @@ double intendedPathMaxDeviation(const std::vector<Similarity> &output_path,
 }
 
 namespace {
-// The fastest smoothed corner step of a path, over frames [first, n).
-double fastestCornerStep(const std::vector<Similarity> &path, int width, int height, std::size_t first, double sigma)
+// The fastest step of any frame corner, each corner's track smoothed by a Gaussian of sigma
+// frames, over frames [first, n).
+double fastestCornerStep(const std::vector<std::array<Point2, 4>> &corners, std::size_t first, double sigma)
 {
-    const std::size_t n = path.size();
-    const double hx = (width - 1) * 0.5, hy = (height - 1) * 0.5;
+    const std::size_t n = corners.size();
     const int radius = int(std::ceil(3 * sigma));
     double fastest = 0.0;
-    for (const Point2 corner : {Point2{-hx, -hy}, Point2{hx, -hy}, Point2{-hx, hy}, Point2{hx, hy}}) {
-        std::vector<Point2> p(n), smooth(n);
-        for (std::size_t i = 0; i < n; ++i)
-            p[i] = path[i].apply(corner);
+    for (std::size_t c = 0; c < 4; ++c) {
+        std::vector<Point2> smooth(n);
         for (std::size_t i = 0; i < n; ++i) {
             double sw = 0, sx = 0, sy = 0;
             for (int k = -radius; k <= radius; ++k) {
@@ -144,8 +151,8 @@ double fastestCornerStep(const std::vector<Similarity> &path, int width, int hei
                     continue;
                 const double w = std::exp(-0.5 * k * k / (sigma * sigma));
                 sw += w;
-                sx += w * p[std::size_t(j)].x;
-                sy += w * p[std::size_t(j)].y;
+                sx += w * corners[std::size_t(j)][c].x;
+                sy += w * corners[std::size_t(j)][c].y;
             }
             smooth[i] = {sx / sw, sy / sw};
         }
@@ -161,12 +168,10 @@ double pathWhip(const std::vector<Similarity> &output_path, const std::vector<Si
                 int height, std::size_t first, double sigma, double still)
 {
     const std::size_t n = std::min(output_path.size(), intended_path.size());
-    const std::vector<Similarity> out(output_path.begin(), output_path.begin() + long(n));
-    const std::vector<Similarity> intended(intended_path.begin(), intended_path.begin() + long(n));
-    const double pilot = fastestCornerStep(intended, width, height, first, sigma);
+    const double pilot = fastestCornerStep(pathCorners(intended_path, width, height, n), first, sigma);
     if (pilot < still)
         return 0.0;
-    return fastestCornerStep(out, width, height, first, sigma) / pilot;
+    return fastestCornerStep(pathCorners(output_path, width, height, n), first, sigma) / pilot;
 }
 
 double coverage(const Similarity &output_to_input, int width, int height)

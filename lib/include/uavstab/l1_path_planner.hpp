@@ -29,9 +29,8 @@
 // Deliberate moves. A steady move (the followed path's velocity over its newest second,
 // the look-ahead included, far above its spread: a drift, a pan, a slow yaw) is followed,
 // not ridden: the path is pulled towards the followed path (an L1 pull, `steady_pull`),
-// so that it does not trail the
-// move at the tube's edge and then kink where the move turns. Handheld sway and walking
-// are not steady, and keep the still path. At short delays, where the look-ahead cannot
+// so that it does not trail the move at the tube's edge and then kink where the move
+// turns. Handheld sway and walking are not steady, and keep the still path. At short delays, where the look-ahead cannot
 // see a move coming, the followed path catches up with a move the camera keeps to one side
 // of (catchUpShare in path_terms.hpp) and the tube narrows to `short_tube` of the room, so
 // that the path neither trails nor overruns a move by a whole room.
