@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "output_pool.hpp"
-#include "uavstab/frame_warper.hpp"
-#include "uavstab/row_transforms.hpp"
+#include "render/frame_warper.hpp"
+#include "render/row_transforms.hpp"
 #include "uavstab_meta.hpp"
 #include "uavstabilize_element.hpp"
 

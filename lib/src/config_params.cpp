@@ -3,7 +3,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "uavstab/exclude_regions.hpp"
+#include "estimate/exclude_regions.hpp"
 
 namespace uavstab {
 

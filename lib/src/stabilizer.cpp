@@ -4,8 +4,11 @@
 #include <atomic>
 #include <stdexcept>
 
-#include "uavstab/debug_overlay.hpp"
-#include "uavstab/frame_warper.hpp"
+#include "estimate/motion_estimator.hpp"
+#include "path/path_planner.hpp"
+#include "path/trajectory.hpp"
+#include "render/debug_overlay.hpp"
+#include "render/frame_warper.hpp"
 #include "worker_pool.hpp"
 
 namespace uavstab {
@@ -55,14 +58,14 @@ bool samePlanner(const StabilizerConfig &a, const StabilizerConfig &b)
 } // namespace
 
 Stabilizer::Stabilizer(const StabilizerConfig &config)
-    : config_(config), estimator_(config)
+    : config_(config), estimator_(std::make_unique<MotionEstimator>(config)), trajectory_(std::make_unique<Trajectory>())
 {
     config_.validate();
     frame_config_ = std::make_shared<const StabilizerConfig>(config_);
     pool_ = std::make_unique<WorkerPool>(config_.resolvedThreads());
     // A worker with nothing queued (no warp) joins in the estimation's downscale and
     // tracking: the same results, sooner.
-    estimator_.setShareWork([this](int chunks, const std::function<void(int, int)> &work) {
+    estimator_->setShareWork([this](int chunks, const std::function<void(int, int)> &work) {
         pool_->share(chunks, work);
     });
 }
@@ -98,13 +101,13 @@ void Stabilizer::applyConfig()
     config_ = *next_config_;
     config_.threads = threads;  // the pool is rebuilt only in reset()
     next_config_.reset();
-    estimator_.setConfig(config_);
+    estimator_->setConfig(config_);
     frame_config_ = std::make_shared<const StabilizerConfig>(config_);
 }
 
 void Stabilizer::setFrameInterval(double milliseconds)
 {
-    estimator_.setFrameInterval(milliseconds);
+    estimator_->setFrameInterval(milliseconds);
 }
 
 void Stabilizer::setReadyCallback(std::function<void()> callback)
@@ -166,11 +169,11 @@ void Stabilizer::pushHeld(std::unique_ptr<FrameSlot> slot)
     geometry_ = frame;
     have_geometry_ = true;
     if (discontinuity_)
-        estimator_.reset();
+        estimator_->reset();
 
     Held held;
     try {
-        MotionEstimate estimate = estimator_.estimate(frame);
+        MotionEstimate estimate = estimator_->estimate(frame);
         held.stats.motion = estimate.motion;
         held.stats.model = estimate.model;
         held.stats.points = estimate.points;
@@ -185,12 +188,12 @@ void Stabilizer::pushHeld(std::unique_ptr<FrameSlot> slot)
         discontinuity_ = discontinuity_ || estimate.lost;
     } catch (const std::exception &) {
         // A frame the estimator cannot read gets no correction; tracking restarts.
-        estimator_.reset();
+        estimator_->reset();
         held.stats.skipped = true;
     }
     held.stats.segment_start = discontinuity_;
-    held.stats.index = trajectory_.append(held.stats.motion, discontinuity_);
-    held.stats.trajectory = trajectory_.pose(held.stats.index);
+    held.stats.index = trajectory_->append(held.stats.motion, discontinuity_);
+    held.stats.trajectory = trajectory_->pose(held.stats.index);
     discontinuity_ = false;
     held.slot = std::move(slot);
     held_.push_back(std::move(held));
@@ -245,12 +248,12 @@ void Stabilizer::finalizeOldest()
     job.config = frame_config_;
     job.request.index = held.stats.index;
     job.request.segment_start = held.stats.segment_start;
-    job.request.lookahead = trajectory_.lookahead(held.stats.index, config_.delay);
+    job.request.lookahead = trajectory_->lookahead(held.stats.index, config_.delay);
     job.request.width = pending->input.width;
     job.request.height = pending->input.height;
     // The planner keeps what it needs of the past; the path is needed from the oldest
     // held frame on.
-    trajectory_.dropBefore(held_.empty() ? trajectory_.next() : held_.front().stats.index);
+    trajectory_->dropBefore(held_.empty() ? trajectory_->next() : held_.front().stats.index);
 
     bool start;
     {
@@ -437,11 +440,11 @@ void Stabilizer::reset()
     planner_.reset();
     planner_config_.reset();
     frame_config_ = std::make_shared<const StabilizerConfig>(config_);
-    estimator_.setConfig(config_);
-    estimator_.reset();
+    estimator_->setConfig(config_);
+    estimator_->reset();
     if (pool_->size() != config_.resolvedThreads())
         pool_ = std::make_unique<WorkerPool>(config_.resolvedThreads());
-    trajectory_.clear();
+    trajectory_->clear();
     discontinuity_ = true;
     have_geometry_ = false;
 }

@@ -1,4 +1,4 @@
-// Internal: a fixed set of threads running submitted tasks in FIFO order.
+// A fixed set of threads running submitted tasks in FIFO order.
 #pragma once
 
 #include <condition_variable>

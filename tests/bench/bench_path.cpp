@@ -42,8 +42,8 @@
 
 #include "jitter_metrics.hpp"
 #include "shaky_flight.hpp"
-#include "uavstab/l1_path_planner.hpp"
-#include "uavstab/path_planner.hpp"
+#include "path/l1_path_planner.hpp"
+#include "path/path_planner.hpp"
 
 using namespace uavstab;
 

@@ -37,7 +37,7 @@
 #include "plot.hpp"
 #include "registration.hpp"
 #include "shaky_flight.hpp"
-#include "uavstab/frame_warper.hpp"
+#include "render/frame_warper.hpp"
 #include "uavstab/stabilizer.hpp"
 
 using namespace uavstab;

@@ -37,7 +37,7 @@
 #include "jitter_metrics.hpp"
 #include "osd.hpp"
 #include "shaky_flight.hpp"
-#include "uavstab/row_transforms.hpp"
+#include "render/row_transforms.hpp"
 #include "uavstab/stabilizer.hpp"
 #include "wobble_metric.hpp"
 

@@ -18,11 +18,11 @@
 #include <opencv2/core/utility.hpp>
 
 #include "common.hpp"
-#include "uavstab/frame_warper.hpp"
-#include "uavstab/framing.hpp"
-#include "uavstab/motion_estimator.hpp"
+#include "render/frame_warper.hpp"
+#include "path/framing.hpp"
+#include "estimate/motion_estimator.hpp"
 #include "uavstab/stabilizer.hpp"
-#include "uavstab/path_planner.hpp"
+#include "path/path_planner.hpp"
 
 using namespace uavstab;
 using namespace bench;

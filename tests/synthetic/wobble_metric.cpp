@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
-#include "uavstab/motion_model.hpp"
+#include "estimate/motion_model.hpp"
 
 namespace uavstab::synthetic {
 

@@ -7,7 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "corner_detector.hpp"
+#include "estimate/corner_detector.hpp"
 #include "shaky_flight.hpp"
 
 using namespace uavstab;

@@ -23,9 +23,9 @@
 #include "osd.hpp"
 #include "shaky_flight.hpp"
 #include "uavstab/config_params.hpp"
-#include "uavstab/debug_overlay.hpp"
-#include "uavstab/exclude_regions.hpp"
-#include "uavstab/feature_tracker.hpp"
+#include "render/debug_overlay.hpp"
+#include "estimate/exclude_regions.hpp"
+#include "estimate/feature_tracker.hpp"
 #include "uavstab/stabilizer.hpp"
 
 using namespace uavstab;

@@ -6,10 +6,10 @@
 
 #include <opencv2/core.hpp>
 
-#include "luma_extractor.hpp"
+#include "estimate/luma_extractor.hpp"
 #include "worker_pool.hpp"
 #include "shaky_flight.hpp"
-#include "uavstab/motion_estimator.hpp"
+#include "estimate/motion_estimator.hpp"
 
 using namespace uavstab;
 

@@ -5,8 +5,8 @@
 #include "buffer_slot.hpp"
 #include "format_conversion.hpp"
 #include "shaky_flight.hpp"
-#include "uavstab/frame_warper.hpp"
-#include "uavstab/framing.hpp"
+#include "render/frame_warper.hpp"
+#include "path/framing.hpp"
 
 using namespace uavstab;
 using test::noiseFrame;
@@ -110,7 +110,7 @@ TEST(Framing, CropZoomsAndLimitsTheCorrectionToWhatItHides)
 
 #include <opencv2/imgproc.hpp>
 
-#include "bilinear_warp.hpp"
+#include "render/bilinear_warp.hpp"
 
 TEST(FrameWarper, FastKernelAgreesWithOpenCvOnRotationAndZoom)
 {
@@ -308,8 +308,8 @@ TEST(WarpKernels, FrameWarperUsesTheChosenKernel)
 
 // Transforms per output row (rolling-shutter correction).
 
-#include "luma_extractor.hpp"  // needsByteSwap
-#include "uavstab/row_transforms.hpp"
+#include "estimate/luma_extractor.hpp"  // needsByteSwap
+#include "render/row_transforms.hpp"
 
 namespace {
 

@@ -2,7 +2,7 @@
 
 #include <random>
 
-#include "uavstab/hybrid_selector.hpp"
+#include "estimate/hybrid_selector.hpp"
 
 using namespace uavstab;
 

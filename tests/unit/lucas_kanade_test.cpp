@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
-#include "lucas_kanade.hpp"
+#include "estimate/lucas_kanade.hpp"
 #include "shaky_flight.hpp"
 
 using namespace uavstab;

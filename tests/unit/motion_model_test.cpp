@@ -3,7 +3,7 @@
 #include <cmath>
 #include <random>
 
-#include "uavstab/motion_model.hpp"
+#include "estimate/motion_model.hpp"
 
 using namespace uavstab;
 

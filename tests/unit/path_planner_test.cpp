@@ -7,13 +7,13 @@
 #include <cstdio>
 #include <random>
 
-#include "box_qp.hpp"
+#include "path/box_qp.hpp"
 #include "jitter_metrics.hpp"
 #include "shaky_flight.hpp"
-#include "uavstab/framing.hpp"
-#include "uavstab/optimal_path_planner.hpp"
-#include "uavstab/path_planner.hpp"
-#include "uavstab/window_path_planner.hpp"
+#include "path/framing.hpp"
+#include "path/optimal_path_planner.hpp"
+#include "path/path_planner.hpp"
+#include "path/window_path_planner.hpp"
 
 using namespace uavstab;
 

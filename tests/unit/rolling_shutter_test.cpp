@@ -7,9 +7,9 @@
 #include <cstdio>
 #include <random>
 
-#include "uavstab/motion_model.hpp"
-#include "uavstab/rolling_shutter.hpp"
-#include "uavstab/row_transforms.hpp"
+#include "estimate/motion_model.hpp"
+#include "estimate/rolling_shutter_estimator.hpp"
+#include "render/row_transforms.hpp"
 
 using namespace uavstab;
 

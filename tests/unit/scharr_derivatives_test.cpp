@@ -6,7 +6,7 @@
 
 #include <opencv2/video/tracking.hpp>
 
-#include "scharr_derivatives.hpp"
+#include "estimate/scharr_derivatives.hpp"
 
 using namespace uavstab;
 

@@ -12,7 +12,7 @@
 #include "buffer_slot.hpp"
 #include "format_conversion.hpp"
 #include "shaky_flight.hpp"
-#include "uavstab/framing.hpp"
+#include "path/framing.hpp"
 #include "uavstab/stabilizer.hpp"
 
 using namespace uavstab;

@@ -11,11 +11,11 @@
 
 #include "buffer_slot.hpp"
 #include "jitter_metrics.hpp"
-#include "luma_extractor.hpp"
+#include "estimate/luma_extractor.hpp"
 #include "shaky_flight.hpp"
 #include "thermal.hpp"
-#include "uavstab/frame_warper.hpp"
-#include "uavstab/motion_estimator.hpp"
+#include "render/frame_warper.hpp"
+#include "estimate/motion_estimator.hpp"
 #include "uavstab/stabilizer.hpp"
 
 using namespace uavstab;

@@ -5,8 +5,8 @@
 #include "buffer_slot.hpp"
 #include "jitter_metrics.hpp"
 #include "shaky_flight.hpp"
-#include "uavstab/trajectory.hpp"
-#include "uavstab/trajectory_smoother.hpp"
+#include "path/trajectory.hpp"
+#include "path/trajectory_smoother.hpp"
 
 using namespace uavstab;
 

@@ -10,7 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "uavstab/motion_model.hpp"
+#include "estimate/motion_model.hpp"
 #include "wobble_metric.hpp"
 
 using namespace uavstab;

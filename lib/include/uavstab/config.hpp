@@ -2,6 +2,9 @@
 // Optical flow-based Video Stabilization for UAVs"). Each field's range and description
 // are in the parameter table (config_params.hpp, one row per field), from which both
 // validate() and the GStreamer element's properties are made.
+//
+// Public API: the fields' names and meanings hold from version to version; defaults and
+// ranges may be tuned (config_params.hpp has the ranges in force).
 #pragma once
 
 #include <string>

@@ -8,6 +8,9 @@
 // gst/uavstabilize_enums.cpp (the element looks it up by field name). A field that is not a
 // number (exclude: a list of rectangles) is a text row (textParam): the library parses and
 // checks its text, the element makes a string property of it.
+//
+// Public API: how a host (the element's properties, a command line) lists, reads and sets
+// every field by its name, with the same checks as validate().
 #pragma once
 
 #include <algorithm>

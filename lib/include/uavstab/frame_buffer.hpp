@@ -1,5 +1,8 @@
 // A frame that owns its pixels: for tests, samples and the synthetic clip generator.
 // Hosts with their own buffers (the GStreamer element) use FrameView directly.
+//
+// Public API: owning storage with the library's own strides, for hosts without buffers
+// of their own.
 #pragma once
 
 #include <cstdint>

@@ -1,14 +1,33 @@
 // What the stabilizer did to one frame: for plots, trackers downstream, and tests.
+//
+// Public API: the per-frame results (FrameStats). Fields keep their meaning; new ones are
+// added at the end.
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
-#include "uavstab/motion_model.hpp"
-#include "uavstab/rolling_shutter.hpp"
 #include "uavstab/similarity.hpp"
 
 namespace uavstab {
+
+// Where the rows of one frame sit relative to its mid-exposure image.
+struct RowMotion {
+    // Centred luma rows of the band centres (ascending) and, per band, the transform from
+    // the mid-exposure image to this frame at that row (a small shift and turn). Empty:
+    // every row is where a global shutter would have put it.
+    std::vector<double> rows;
+    std::vector<Similarity> offsets;
+    // RMS over bands of the offset's shift (px): how much the frame is bent.
+    double wobble = 0.0;
+
+    bool empty() const { return rows.empty(); }
+    // The offset at centred row y, linearly interpolated between band centres (held
+    // beyond the first and last).
+    Similarity at(double y) const;
+    // Where the mid-exposure image has the point this frame captured at p.
+    Point2 toMidExposure(Point2 p) const { return empty() ? p : at(p.y).inverse().apply(p); }
+};
 
 // A track that survived into a frame (forward-backward check passed, not excluded).
 struct TrackedPoint {
@@ -36,7 +55,7 @@ struct FrameStats {
     // analysis; input-frame coordinates: map them with output_to_input.inverse()).
     std::vector<TrackedPoint> tracks;
     // Rolling shutter: where the input's rows sat relative to its mid-exposure, as the
-    // warp undid it (empty: not bent; rolling_shutter.hpp). row_motion.wobble is the size.
+    // warp undid it (empty: not bent). row_motion.wobble is the size.
     RowMotion row_motion;
     // The sensor's readout time as a share of the frame time: the known one
     // (StabilizerConfig::readout_time), else auto's estimate for the stream (0 until it is

@@ -1,5 +1,8 @@
 // A non-owning description of one video frame: format, size, and for each plane a
 // pointer and a stride, so that host buffers (GStreamer, V4L2, OpenCV) wrap without copies.
+//
+// Public API: how a host hands its frames to the library. The library reads and writes a
+// frame only through these pointers and strides, within its width and height.
 #pragma once
 
 #include <array>

@@ -1,4 +1,6 @@
 // Pixel formats the library can read and warp, and the plane layout of each.
+//
+// Public API: the formats and their plane layouts.
 #pragma once
 
 #include <optional>

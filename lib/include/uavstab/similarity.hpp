@@ -3,6 +3,8 @@
 // Points are in "centred" coordinates: pixel (x, y) of a W x H frame is
 // (x - (W-1)/2, y - (H-1)/2). Expressing motion about the centre keeps rotation from
 // leaking into translation when transforms are accumulated and smoothed as parameters.
+//
+// Public API: the transform and the centred coordinates that every result is given in.
 #pragma once
 
 #include <array>
@@ -33,5 +35,11 @@ struct Similarity {
 // (a * b)(p) = a(b(p)): b is applied first. Angles add without wrapping, so a trajectory
 // composed from many steps keeps a continuous angle that can be smoothed directly.
 Similarity operator*(const Similarity &a, const Similarity &b);
+
+// The kind of motion fitted to a frame: rigid (shift and turn, 3 DOF) or similarity
+// (shift, turn and scale, 4 DOF).
+enum class MotionModel { Rigid, Similarity };
+
+const char *toString(MotionModel m);  // "rigid" or "similarity"
 
 } // namespace uavstab

@@ -3,7 +3,7 @@
 //   push(slot) -> motion estimation (caller's thread) -> delay buffer of `delay` frames
 //   -> once frame i + delay is estimated (or on flush()) frame i is final: its output is
 //      acquired (caller's thread) and it is queued for planning
-//   -> a worker plans the output path for it (path_planner.hpp; one frame after another,
+//   -> a worker plans the output path for it (StabilizerConfig::planner; one frame after another,
 //      never two at once), then the workers warp it in stripes
 //   -> tryPop()/waitPop() hand frames back in input order, with their slots.
 //
@@ -11,6 +11,12 @@
 // FrameSlot supplies both, and carries whatever the caller needs to get back (buffers,
 // timestamps). push/flush/reset/setConfig/markDiscontinuity belong to one thread (the
 // "control" thread); tryPop/waitPop may be called from any thread.
+//
+// Public API. A user may rely on: every frame pushed (and not refused by an exception)
+// comes back exactly once, in push order, with its slot, unless reset() drops it; it is
+// held until `delay` more frames are pushed, flush() is called or the frame format
+// changes; the thread rules above. Not promised: the same output bytes from one version to
+// the next (estimation and planning are tuned).
 #pragma once
 
 #include <condition_variable>
@@ -25,12 +31,12 @@
 #include "uavstab/config.hpp"
 #include "uavstab/frame_stats.hpp"
 #include "uavstab/frame_view.hpp"
-#include "uavstab/motion_estimator.hpp"
-#include "uavstab/path_planner.hpp"
-#include "uavstab/trajectory.hpp"
 
 namespace uavstab {
 
+class MotionEstimator;
+class PathPlanner;
+class Trajectory;
 class WorkerPool;
 
 // One frame on its way through the stabilizer, owned by it until handed back.
@@ -135,8 +141,8 @@ private:
     // The config frames are finalized under, shared by their plan jobs: the planning task
     // sees each setting change in frame order, with no per-frame copy.
     std::shared_ptr<const StabilizerConfig> frame_config_;
-    MotionEstimator estimator_;
-    Trajectory trajectory_;
+    std::unique_ptr<MotionEstimator> estimator_;
+    std::unique_ptr<Trajectory> trajectory_;
     std::deque<Held> held_;
     bool discontinuity_ = true;
     bool have_geometry_ = false;

@@ -1,0 +1,95 @@
+// A fast bilinear resampler for one 8-bit plane under an affine map that is
+// close to a similarity (the stabilizer's case: rotation of a few degrees, scale near 1).
+//
+// OpenCV's warpAffine spends most of its time computing and gathering source
+// coordinates pixel by pixel. Here, along an output row the source advances by a nearly
+// constant step, so 8 or 16 output bytes read from one 16-byte window per source row: a
+// byte shuffle replaces the gather. Positions are quantised to 1/64 pixel (OpenCV: 1/32).
+// Pixels whose taps leave the frame or the window take the per-pixel path.
+//
+// Three kernels write the same bytes (the tests compare them): AVX2 (x86, chosen at run
+// time), a 128-bit one written once with OpenCV's universal intrinsics (NEON on ARM;
+// SSE2 + SSSE3 on x86 without AVX2) and a scalar reference that spells out their integer
+// arithmetic (used where neither exists). So a given input warps to the same output on
+// every machine.
+//
+// Each kernel also takes a matrix per output row (rolling-shutter correction) in the same
+// pass: a row warped with its own matrix gets exactly the bytes the single-matrix warp
+// writes there.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+namespace uavstab {
+
+struct PlaneSpan {
+    const std::uint8_t *data;
+    int stride;
+    int width;   // pixels
+    int height;
+};
+
+enum class WarpKernel { Scalar, Simd128, Avx2 };
+
+// "scalar", "sse128" / "neon128" (Simd128 on x86 / ARM), "avx2".
+const char *warpKernelName(WarpKernel kernel);
+// Whether this build and this CPU have the kernel.
+bool warpKernelAvailable(WarpKernel kernel);
+// The kernel warpPlaneBilinear uses: the fastest available (AVX2 > 128-bit > scalar), or
+// the one named by the environment variable UAVSTAB_WARP_KERNEL (scalar, simd128 or its
+// name above, avx2) when this CPU has it. Read once.
+WarpKernel warpKernel();
+
+// dst(x, y) = src(m * (x, y, 1)) for dst rows [row_begin, row_end), `channels` interleaved
+// bytes per pixel (1 or 2: luma and chroma planes). Returns false, having written nothing, when this transform
+// is not handled (the caller then uses a general warp).
+bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                       int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4]);
+// The same with a given kernel (tests); false also when the kernel is not available.
+bool warpPlaneBilinear(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                       int row_end, int channels, const double m[6], bool replicate, const std::uint8_t border[4],
+                       WarpKernel kernel);
+
+// Whether warpPlaneBilinear handles this transform (given an available kernel).
+bool warpPlaneBilinearHandles(const PlaneSpan &src, int channels, const double m[6]);
+
+// A transform per destination row, in one pass (rolling-shutter correction): dst row y is
+// warped by row_m[y - row_begin] and gets the bytes warpPlaneBilinear writes there with
+// that matrix. Returns false, having written nothing, when any row's transform is not
+// handled (warpPlaneBilinearHandles).
+bool warpPlaneBilinearRows(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                           int row_end, int channels, const std::array<double, 6> *row_m, bool replicate,
+                           const std::uint8_t border[4]);
+bool warpPlaneBilinearRows(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                           int row_end, int channels, const std::array<double, 6> *row_m, bool replicate,
+                           const std::uint8_t border[4], WarpKernel kernel);
+
+// 4 interleaved bytes per pixel (BGRx, RGBA...): writes the bytes cv::warpAffine(INTER_LINEAR |
+// WARP_INVERSE_MAP, BORDER_CONSTANT with `border` or BORDER_REPLICATE) writes into dst rows
+// [row_begin, row_end) when given the plane matrix m shifted to row_begin and those rows
+// (as FrameWarper hands it a stripe): OpenCV 4's fixed-point bilinear, 1/32 px, in one pass.
+// False, having written nothing, when the kernel is not available here or the transform
+// reads too far out (|source| >= 30000 px). Without a kernel: the AVX2 one, or false when
+// this CPU has none (OpenCV's own warp is then the faster); Scalar spells the arithmetic
+// out (tests).
+bool warpPlaneBilinear4(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                        int row_end, const double m[6], bool replicate, const std::uint8_t border[4]);
+bool warpPlaneBilinear4(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                        int row_end, const double m[6], bool replicate, const std::uint8_t border[4],
+                        WarpKernel kernel);
+
+// The same for one plane of 16-bit samples (one channel), at full depth: taps weighted in
+// double precision and the result rounded to the nearest integer, so that an integer
+// position reproduces its sample exactly and nothing is clipped or rescaled (a bilinear
+// value lies between its taps). Samples are read and written byte-swapped when `swap`
+// (the plane's byte order is not the host's). Taps outside the frame read `border` or,
+// with `replicate`, the nearest edge sample. Handles every transform.
+void warpPlaneBilinear16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                         int row_end, const double m[6], bool replicate, std::uint16_t border, bool swap);
+// The same with a transform per destination row, row_m[y - row_begin] for row y.
+void warpPlaneBilinear16Rows(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                             int row_end, const std::array<double, 6> *row_m, bool replicate, std::uint16_t border,
+                             bool swap);
+
+} // namespace uavstab
