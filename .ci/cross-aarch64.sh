@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# aarch64 cross build of the library and its tests (issue 14), the tests run under
+# aarch64 cross build of the library and its tests, the tests run under
 # qemu-user. The GStreamer element is not built (-Dgst=disabled).
 #   bash .ci/cross-aarch64.sh [extra meson test args, e.g. test names]
 # e.g. `bash .ci/cross-aarch64.sh frame_warper`: its log names the warp kernel that ran

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# CI (issue 14): builds the Debian packages (debian/), installs them, and checks them
+# CI: builds the Debian packages (debian/), installs them, and checks them
 # from the system install alone:
 #   - gst-inspect-1.0 finds uavstabilize with no GST_PLUGIN_PATH, and a pipeline runs;
 #   - a program built with $(pkg-config --cflags --libs uavstab) stabilizes a few frames.

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # CI's second half: the library and element tests under ASan+UBSan (the element suite
-# includes the chaos test, 300 random sequences), and libFuzzer runs of 60 s each over the
+# includes the chaos test, 300 random sequences), and libFuzzer runs (60 s each unless given) over the
 # library and over the element. Run after tests/run.sh (which installs the build
 # dependencies).
 #   bash .ci/sanitizers.sh [fuzz seconds, for each fuzzer]

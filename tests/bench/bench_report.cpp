@@ -150,7 +150,7 @@ int main(int argc, char **argv)
                                format("%.0f in one process, %.0f in separate processes",
                                       n.get("streams.1080p.one_process"), n.get("streams.1080p.processes")),
                                "reported"});
-        // Issue 22: live streams of this tree against a base commit's plugin, same run
+        // Live streams of this tree against a base commit's plugin, same run
         // (streams.sh --base); judged on the lower of the two ratios (one process, N processes).
         if (n.has("streams.1080p.base.one_process") || n.has("streams.1080p.base.processes")) {
             std::string m;
@@ -176,7 +176,7 @@ int main(int argc, char **argv)
                                    " (same run; the lower of the two ratios)",
                                m, verdict(any, worst >= 1.5)});
         }
-        // Issue 22: throughput. The zero-copy mode against the warp, same run.
+        // Throughput. The zero-copy mode against the warp, same run.
         {
             const std::string k = "element.affine_meta.1920x1080";
             targets.push_back({"render=affine-meta >= 3x render=warp frames/s at 1920x1080 (element, I420, 2 threads)",
@@ -193,7 +193,7 @@ int main(int argc, char **argv)
                                    verdict(std::isfinite(e / d), e / d >= wanted)});
             }
         }
-        // Issue 22, per stage at 1080p on one thread (bench_speed's per-stage table).
+        // Per stage at 1080p on one thread (bench_speed's per-stage table).
         if (n.has("stage.1920x1080.I420.copy1_ms")) {
             std::string measured;
             bool met = true;
@@ -252,7 +252,7 @@ int main(int argc, char **argv)
                                                         : "**not met** (" + failed + ")"});
                 }
             };
-            // Issue 20: short delays are judged after the first second; hover and manoeuvres
+            // Short delays are judged after the first second; hover and manoeuvres
             // against their intended (shake-free) path.
             const std::map<int, double> hover_limits{{0, 1.5}, {5, 1.0}, {20, 0.5}};
             ratioTarget("hover (synthetic), jitter against the intended path after the first second vs vid.stab <= "
@@ -471,7 +471,7 @@ int main(int argc, char **argv)
                 }
             }
         }
-        // Issue 21: rolling-shutter correction (bench_rolling_shutter.cpp), judged on every
+        // Rolling-shutter correction (bench_rolling_shutter.cpp), judged on every
         // flight, seed and delay (the worst), not on means.
         if (n.has("rs.flights.runs")) {
             targets.push_back({"rolling shutter (synthetic flights, readout 50-90 %, 30-60 Hz vibration, auto): wobble "
@@ -522,7 +522,7 @@ int main(int argc, char **argv)
                                "comes from registering one similarity to the output, which per-row warps bend)",
                                format("%.4f", n.get("rs.still.real.picture_lost_worst")), "reported"});
         if (n.has("rs.still.real.itf_drop_worst")) {
-            // Issue 34: the correction never makes a real clip worse (the AR.Drone clip's
+            // The correction never makes a real clip worse (the AR.Drone clip's
             // wobble target was dropped: its non-rigid motion is parallax).
             const double drop = n.get("rs.still.real.itf_drop_worst");
             targets.push_back({"rolling shutter auto on every real clip (the AR.Drone clip among them): ITF no lower "
@@ -569,7 +569,7 @@ int main(int argc, char **argv)
                                       num(n.get("memory.long.rss10k_mib"), "%.1f").c_str(),
                                       num(n.get("memory.long.rss_end_mib"), "%.1f").c_str()),
                                verdict(std::isfinite(g), std::abs(g) <= 1.0)});
-            // Issue 22: peak heap <= delay + 8 frames at every resolution, library and element
+            // Peak heap <= delay + 8 frames at every resolution, library and element
             // (the element's without appsrc's queue: the harness's frames).
             std::string measured;
             bool met = true, any = false;
@@ -650,7 +650,7 @@ int main(int argc, char **argv)
         const std::string path = readFile(o.out_dir + "/quality_path.md");
         if (!path.empty())
             r << "### The planners alone (perfect motion estimates)\n\n" << path;
-        // Issue 21: what the rolling-shutter correction removes, leaves alone and costs.
+        // What the rolling-shutter correction removes, leaves alone and costs.
         const std::string rs_flights = readFile(o.out_dir + "/rs_flights.md");
         const std::string rs_still = readFile(o.out_dir + "/rs_still.md");
         const std::string rs_cost = readFile(o.out_dir + "/rs_cost.md");

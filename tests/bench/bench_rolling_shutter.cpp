@@ -1,4 +1,4 @@
-// Rolling-shutter correction (issue 21): how much of a rolling shutter's wobble the library
+// Rolling-shutter correction: how much of a rolling shutter's wobble the library
 // removes, what it does to footage that has none, and what it costs. Runs the library
 // directly (Stabilizer + pooled output frames, 2 threads, defaults otherwise; the cost
 // section on 1 thread), auto (the default) beside rolling_shutter=off.

@@ -10,7 +10,7 @@
 # quality, path, rs, streams, profile; repeatable; the report is still assembled from whatever the out dir holds,
 # under the header of the run that made it, with a line saying what was re-run),
 # --base REV (the commit streams.sh and profile.sh measure this tree against, default c0aeebc,
-# the first wave's element; "none": this tree alone).
+# the element with the window planners alone; "none": this tree alone).
 # Uses its own build dir, build-bench (UAVSTAB_BENCH_BUILD_DIR overrides). Real clips are
 # read from ../shared/data (relative to the repository) when present and skipped when not.
 # A benchmark, not a test: it reports numbers and never fails on them.
@@ -130,7 +130,7 @@ if wants path; then
   fi
 fi
 if wants rs; then
-  step "rolling shutter (issue 21)"
+  step "rolling shutter"
   "$bin/uavstab-bench-rolling-shutter" --out "$out" --data "$data" "${quick[@]}"
 fi
 base_args=()

@@ -1,4 +1,4 @@
-// Chaos test of the element (issue 12): seeded random sequences that mix, on a streaming
+// Chaos test of the element: seeded random sequences that mix, on a streaming
 // thread, frames of random sizes, layouts and formats (short and empty buffers among
 // them), caps changes, missing and backward timestamps, DISCONT, GAP, TAG, custom events,
 // segments, EOS (and new streams after it), DRAIN queries and flushes; and, from a

@@ -127,7 +127,7 @@ int teardownRuns()
     return value ? std::atoi(value) : 100;
 }
 
-// Issue 12's harness: appsrc pushes 10 good 320x240 I420 frames, then one buffer half the
+// The harness: appsrc pushes 10 good 320x240 I420 frames, then one buffer half the
 // size its caps say (an error with max-errors=0, else dropped with a warning), and the
 // pipeline is torn down at once, with warps still queued on the workers (a single worker
 // and delay 0, so they queue up). Before the fix this crashed in Stabilizer::startWarp

@@ -1,4 +1,4 @@
-// The element's properties come from the library's parameter table (issue 12): for
+// The element's properties come from the library's parameter table: for
 // every row there is a property of the same name (with '-'), its type, range, default
 // and mutability are the row's, and the element and the library accept and refuse the
 // same values (GLib refuses an out-of-range set with a warning; validate() throws).

@@ -1,4 +1,4 @@
-// Bad input and hostile use (issue 6): timestamps that are missing, repeated, going
+// Bad input and hostile use: timestamps that are missing, repeated, going
 // backwards or jumping; caps changing every frame; tiny and huge frames; an upstream
 // pool with few buffers; properties changed from another thread while playing; storms
 // of flushing seeks. Each: no crash, no hang, every frame out once, in order, no leak.

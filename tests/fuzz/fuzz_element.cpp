@@ -1,4 +1,4 @@
-// libFuzzer target over the uavstabilize element (issue 12): the input decodes into the
+// libFuzzer target over the uavstabilize element: the input decodes into the
 // element's settings and a sequence of operations on it, driven through the chaos rig
 // (tests/element/chaos_rig.hpp: our own source and sink pads around the element, and a
 // log of what went in and out):

@@ -162,8 +162,9 @@ TEST(ConfigValidate, MessagesNameTheFieldTheRangeAndTheValue)
     EXPECT_EQ(refusal(c), "StabilizerConfig: model must be in [0, 2] (got 7)");
 }
 
-// The ranges where the library and the element used to disagree (issue 12), now one.
-TEST(ConfigValidate, FormerlyDisagreeingRanges)
+// The table's ranges (which validate() and the element's properties both use) for the
+// fields whose limits the element and the library must agree on.
+TEST(ConfigValidate, TableRangesOfSharedFields)
 {
     const struct {
         const char *name;

@@ -196,9 +196,9 @@ TEST(Stabilizer, ResetDropsHeldFramesAndRestarts)
     EXPECT_EQ(ids, iota(3));
 }
 
-// Regression (issue 12): destroying a Stabilizer with warps still queued must let every
-// queued task run while the pool is still there. Before the fix ~Stabilizer nulled pool_
-// first and a queued startWarp called pool_->size() through it (SIGSEGV). The ready
+// Destroying a Stabilizer with warps still queued must let every queued task run while
+// the pool is still there (a queued startWarp calls pool_->size(): were pool_ nulled
+// first, that would be a SIGSEGV). The ready
 // callback holds the single worker on the first frame so that the rest are certainly
 // queued when the destructor starts.
 TEST(Stabilizer, DestroyedWithWarpsQueuedFinishesThemWithoutCrashing)

@@ -82,7 +82,7 @@ struct StabilizerConfig {
     // Side of the Lucas-Kanade window in analysis pixels (odd, 7..41; small frames get a
     // smaller one). Tracking time grows with its area: 19 instead of 21 takes about a
     // quarter less, at a small cost on low-texture input (thermal), where big windows
-    // follow better; 21 is the quality default (see tests/bench/REPORT.md, issue 5).
+    // follow better; 21 is the quality default (see tests/bench/REPORT.md).
     int tracking_window = 21;
 
     ModelChoice model = ModelChoice::Hybrid;

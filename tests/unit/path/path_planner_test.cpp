@@ -361,9 +361,9 @@ TEST(PathPlanner, SameInputSameOutput)
     }
 }
 
-TEST(PathPlanner, WindowPlannerIsTheOldSmootherAndClamp)
+TEST(PathPlanner, WindowPlannerIsTheSmootherThenTheClamp)
 {
-    // The Gaussian window planner gives exactly what the first wave's smoother + framing gave.
+    // The Gaussian window planner gives exactly the window smoother followed by framing's clamp.
     const auto path = shakyPath(4, 100, 10.0, 1.0, 0.0);
     WindowPathPlanner planner(SmootherKind::Gaussian, 20, 0.08, true);
     const auto planned = planPath(planner, path, 20);
