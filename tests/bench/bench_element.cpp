@@ -246,7 +246,8 @@ int main(int argc, char **argv)
     try {
         std::string why;
         const bool ok = initElement(&argc, &argv, &why);
-        const Options o = parseOptions(argc, argv, "usage: uavstab-bench-element --out DIR [--quick] [--only throughput|latency|affine-meta]...\n");
+        const Options o = parseOptions(argc, argv, "usage: uavstab-bench-element --out DIR [--quick] [--resolution WxH]... [--only throughput|latency|affine-meta]...\n",
+                                       {"throughput", "latency", "affine-meta"});
         if (!ok) {
             Fragment a(o, "speed_element"), b(o, "latency_element");
             a.text("Element throughput: skipped: " + why + ".");

@@ -34,7 +34,8 @@ int main(int argc, char **argv)
     try {
         const Options o = parseOptions(
             argc, argv,
-            "usage: uavstab-bench-quality --out DIR [--quick] [--data DIR] [--only synthetic|manoeuvre|drone|strong|real]...\n");
+            "usage: uavstab-bench-quality --out DIR [--quick] [--data DIR] [--only synthetic|manoeuvre|drone|strong|real]...\n",
+            {"synthetic", "manoeuvre", "drone", "strong", "real"});
         const bool deshake = ffmpegHasFilter("deshake");
         const bool vidstab = ffmpegHasFilter("vidstabdetect") && ffmpegHasFilter("vidstabtransform");
         if (!deshake)

@@ -805,7 +805,8 @@ int main(int argc, char **argv)
     try {
         const Options o = parseOptions(
             argc, argv,
-            "usage: uavstab-bench-rolling-shutter --out DIR [--quick] [--data DIR] [--only flights|still|osd|cost]...\n");
+            "usage: uavstab-bench-rolling-shutter --out DIR [--quick] [--data DIR] [--only flights|still|osd|cost]...\n",
+            {"flights", "still", "osd", "cost"});
         GlobalRuns global;
         const auto t0 = Clock::now();
         auto timed = [&](const char *name, const std::function<void()> &section) {

@@ -441,7 +441,8 @@ void sectionPeers(const Options &o, const std::vector<ResolutionPlan> &plans,
 int main(int argc, char **argv)
 {
     try {
-        const Options o = parseOptions(argc, argv, "usage: uavstab-bench-speed --out DIR [--quick] [--only lib|stages|latency|peers]... [--cv-threads N]\n");
+        const Options o = parseOptions(argc, argv, "usage: uavstab-bench-speed --out DIR [--quick] [--only lib|stages|latency|peers]... [--cv-threads N]\n",
+                                       {"lib", "stages", "latency", "peers"}, {"--cv-threads"});
         for (std::size_t i = 0; i + 1 < o.rest.size(); ++i)
             if (o.rest[i] == "--cv-threads")  // for experiments: OpenCV's pool size
                 cv::setNumThreads(std::atoi(o.rest[i + 1].c_str()));

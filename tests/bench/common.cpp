@@ -230,9 +230,11 @@ bool Options::wants(const std::string &section) const
     return only.empty() || std::find(only.begin(), only.end(), section) != only.end();
 }
 
-Options parseOptions(int argc, char **argv, const char *usage)
+Options parseOptions(int argc, char **argv, const char *usage, const std::vector<std::string> &sections,
+                     const std::vector<std::string> &program_flags)
 {
     Options o;
+    auto refuse = [&](const std::string &why) { throw std::invalid_argument(why + "\n" + usage); };
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "-h" || a == "--help") {
@@ -248,14 +250,20 @@ Options parseOptions(int argc, char **argv, const char *usage)
             o.quick = true;
         else if (a == "--out")
             o.out_dir = value();
-        else if (a == "--only")
+        else if (a == "--only") {
             o.only.push_back(value());
+            if (std::find(sections.begin(), sections.end(), o.only.back()) == sections.end())
+                refuse("no section \"" + o.only.back() + "\"");
+        }
         else if (a == "--data")
             o.data_dir = value();
         else if (a == "--resolution")
             o.resolutions.push_back(value());
-        else
+        else if (std::find(program_flags.begin(), program_flags.end(), a) != program_flags.end()) {
             o.rest.push_back(a);
+            o.rest.push_back(value());
+        } else
+            refuse("unknown argument \"" + a + "\"");
     }
     ::mkdir(o.out_dir.c_str(), 0755);
     return o;

@@ -86,11 +86,13 @@ struct Options {
     std::vector<std::string> only;  // sections to run (empty = all)
     std::string data_dir;           // real clips (../shared/data relative to the repo)
     std::vector<std::string> resolutions;  // --resolution WxH (repeatable): only these sizes
-    std::vector<std::string> rest;  // anything else, for the program
+    std::vector<std::string> rest;  // the program's own flags (program_flags), each with its value
     bool wants(const std::string &section) const;
 };
-// Prints `usage` and exits on -h/--help; unknown arguments go to Options::rest.
-Options parseOptions(int argc, char **argv, const char *usage);
+// Prints `usage` and exits on -h/--help. `--only` takes one of `sections`; each flag of
+// `program_flags` takes a value and goes to Options::rest. Anything else throws with the usage.
+Options parseOptions(int argc, char **argv, const char *usage, const std::vector<std::string> &sections = {},
+                     const std::vector<std::string> &program_flags = {});
 
 // Appends "key<TAB>value" lines to OUT/summary.tsv (read by the report assembler).
 void putResult(const Options &o, const std::string &key, double value);
