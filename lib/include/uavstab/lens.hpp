@@ -1,7 +1,8 @@
 // The camera's lens: OpenCV's fisheye model (k1-k4) or its standard model (k1, k2, p1, p2,
 // k3), and the calibration files drone users have (Gyroflow lens profiles, OpenCV
-// calibrations). With a lens in StabilizerConfig::lens the stabilizer estimates motion on the
-// undistorted (pinhole) view and warps through the lens in one pass.
+// calibrations): a pixel's undistorted (pinhole) position and back, and the file reader. The
+// Stabilizer does not take a lens: this header is for code that maps points or pictures
+// through one.
 //
 // Public API: LensModel's fields and the meaning of distort()/undistort() hold from version
 // to version; readLensProfile() keeps reading the formats listed at it.
@@ -52,6 +53,7 @@ struct LensProfile {
     LensModel lens;
     std::string name;           // the profile's "name", else the file's
     double readout_time = 0.0;  // ms, 0 when the file does not say
+    bool readout_bottom_up = false;  // the rows are read from the bottom up
     bool global_shutter = false;
 };
 

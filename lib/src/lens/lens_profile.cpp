@@ -73,9 +73,11 @@ public:
                          params + ".distortion_coeffs", p.lens);
 
         if (const JsonValue *readout = root_.find("frame_readout_time"); readout && !readout->isNull()) {
-            if (readout->type != JsonValue::Type::Number || !(readout->number >= 0.0 && readout->number <= 1000.0))
-                fail("frame_readout_time", "must be a number of ms, 0-1000, or null");
-            p.readout_time = readout->number;
+            // Negative: the sensor reads its rows from the bottom up (Gyroflow's convention).
+            if (readout->type != JsonValue::Type::Number || !(std::abs(readout->number) <= 1000.0))
+                fail("frame_readout_time", "must be a number of ms, -1000 to 1000, or null");
+            p.readout_time = std::abs(readout->number);
+            p.readout_bottom_up = readout->number < 0.0;
         }
         if (const JsonValue *gs = root_.find("global_shutter"); gs && !gs->isNull()) {
             if (gs->type != JsonValue::Type::Bool)

@@ -225,6 +225,13 @@ TEST(LensProfile, ReadsGyroflowLayouts)
     EXPECT_EQ(b.lens.kind, LensKind::Standard);
     EXPECT_DOUBLE_EQ(b.lens.coeffs[4], 0.004);
     EXPECT_DOUBLE_EQ(b.readout_time, 16.5);
+    EXPECT_FALSE(b.readout_bottom_up);
+    // A negative readout time: the rows are read from the bottom up.
+    std::string bottom_up = kGyroflowOldStandard;
+    bottom_up.replace(bottom_up.find("16.5"), 4, "-16.5");
+    const LensProfile c = readLensProfile(writeFile("bottom_up.json", bottom_up));
+    EXPECT_DOUBLE_EQ(c.readout_time, 16.5);
+    EXPECT_TRUE(c.readout_bottom_up);
 }
 
 TEST(LensProfile, ReadsAnOpenCvCalibration)
