@@ -22,7 +22,6 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
-#include <dirent.h>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -473,24 +472,9 @@ void sectionStillSynthetic(const Options &o, Fragment &frag, GlobalRuns &global)
     putResult(o, "rs.still.syn.frames", frames_total);
 }
 
-std::vector<std::string> clipFiles(const std::string &dir)
-{
-    std::vector<std::string> files;
-    if (DIR *d = opendir(dir.c_str())) {
-        while (dirent *e = readdir(d)) {
-            const std::string n = e->d_name;
-            if (n.size() > 4 && (n.substr(n.size() - 4) == ".mp4" || n.substr(n.size() - 4) == ".avi"))
-                files.push_back(n);
-        }
-        closedir(d);
-    }
-    std::sort(files.begin(), files.end());
-    return files;
-}
-
 void sectionStillReal(const Options &o, Fragment &frag)
 {
-    std::vector<std::string> files = o.data_dir.empty() ? std::vector<std::string>{} : clipFiles(o.data_dir);
+    std::vector<std::string> files = o.data_dir.empty() ? std::vector<std::string>{} : realClipFiles(o.data_dir);
     if (files.empty() || !haveCommand("ffmpeg")) {
         frag.text("Real clips: skipped: " +
                   std::string(files.empty() ? "no clips in " + (o.data_dir.empty() ? "(no data dir)" : o.data_dir)

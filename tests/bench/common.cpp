@@ -10,6 +10,7 @@
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
+#include <dirent.h>
 #include <malloc.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -639,6 +640,21 @@ double psnrCentral(const cv::Mat &a, const cv::Mat &b)
     diff.convertTo(diff, CV_64F);
     const double mse = cv::mean(diff.mul(diff))[0];
     return mse <= 1e-10 ? 100.0 : std::min(100.0, 10.0 * std::log10(255.0 * 255.0 / mse));
+}
+
+std::vector<std::string> realClipFiles(const std::string &dir)
+{
+    std::vector<std::string> files;
+    if (DIR *d = opendir(dir.c_str())) {
+        while (dirent *e = readdir(d)) {
+            const std::string n = e->d_name;
+            if (n.size() > 4 && (n.substr(n.size() - 4) == ".mp4" || n.substr(n.size() - 4) == ".avi"))
+                files.push_back(n);
+        }
+        closedir(d);
+    }
+    std::sort(files.begin(), files.end());
+    return files;
 }
 
 } // namespace bench

@@ -203,6 +203,8 @@ private:
 
 // ---- external tools -----------------------------------------------------------------
 bool haveCommand(const std::string &name);
+// The video clips (.mp4, .avi) in `dir`, file names sorted; none when it cannot be read.
+std::vector<std::string> realClipFiles(const std::string &dir);
 bool ffmpegHasFilter(const std::string &filter);
 // Runs a shell command; returns its exit status. Wall time in *seconds when given.
 int runCommand(const std::string &command, double *seconds = nullptr);

@@ -2,7 +2,6 @@
 // score (Liu et al. 2013), ITF, coverage and zoom, and the zoom plot (zoom_real.png).
 #include <algorithm>
 #include <cmath>
-#include <dirent.h>
 
 #include "plot.hpp"
 
@@ -40,17 +39,7 @@ void zoomPlot(const Options &o, const ClipResult &r, const std::vector<Method> &
 void sectionReal(const Options &o, const std::vector<Method> &ms)
 {
     Fragment frag(o, "quality_real");
-    std::vector<std::string> files;
-    if (!o.data_dir.empty())
-        if (DIR *d = opendir(o.data_dir.c_str())) {
-            while (dirent *e = readdir(d)) {
-                const std::string n = e->d_name;
-                if (n.size() > 4 && (n.substr(n.size() - 4) == ".mp4" || n.substr(n.size() - 4) == ".avi"))
-                    files.push_back(n);
-            }
-            closedir(d);
-        }
-    std::sort(files.begin(), files.end());
+    std::vector<std::string> files = o.data_dir.empty() ? std::vector<std::string>{} : realClipFiles(o.data_dir);
     if (files.empty() || !haveCommand("ffmpeg")) {
         frag.text("Real clips: skipped: " +
                   std::string(files.empty() ? "no clips in " + (o.data_dir.empty() ? "(no data dir)" : o.data_dir)
