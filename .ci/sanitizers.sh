@@ -28,7 +28,7 @@ echo "(the live RTSP test and the KLV sample test are not run under ASan: they d
   CC=clang CXX=clang++ meson setup build-fuzz -Dfuzz=true -Db_sanitize=address,undefined -Db_lundef=false \
     -Dbuildtype=debugoptimized -Dtests=disabled -Dbench=disabled >/dev/null
 meson configure build-fuzz -Dgst=enabled >/dev/null  # the element fuzzer links the plugin (older dirs had it off)
-ninja -C build-fuzz -j "$(nproc)" tests/fuzz/fuzz_stabilizer tests/fuzz/fuzz_element
+ninja -C build-fuzz -j "$(nproc)" tests/fuzz/fuzz_stabilizer tests/fuzz/fuzz_element tests/fuzz/fuzz_lens_profile
 
 # fuzz NAME SEED_CORPUS: a run of fuzz_seconds from the committed seeds; fails on any finding.
 fuzz() {
@@ -49,4 +49,6 @@ echo "== libFuzzer: ${fuzz_seconds} s over the library"
 fuzz fuzz_stabilizer tests/fuzz/corpus
 echo "== libFuzzer: ${fuzz_seconds} s over the element"
 fuzz fuzz_element tests/fuzz/element_corpus
+echo "== libFuzzer: ${fuzz_seconds} s over the lens-profile reader"
+fuzz fuzz_lens_profile tests/fuzz/lens_corpus
 echo "sanitizers and fuzzers: clean"

@@ -165,7 +165,25 @@ private:
     const JsonValue &root_;
 };
 
+LensProfile readOpenCvCalibrationFields(const std::string &path);
+
+// Any error OpenCV raises while reading (a file whose root is not a map, a malformed node;
+// its YAML parser can also throw std::length_error on some broken files) is the file's: it
+// is reported as the profile's, not let through.
 LensProfile readOpenCvCalibration(const std::string &path)
+{
+    try {
+        return readOpenCvCalibrationFields(path);
+    } catch (const LensProfileError &) {
+        throw;
+    } catch (const cv::Exception &e) {
+        throw LensProfileError(path, "", std::string("is not a readable OpenCV calibration (") + e.err + ")");
+    } catch (const std::exception &e) {
+        throw LensProfileError(path, "", std::string("is not a readable OpenCV calibration (") + e.what() + ")");
+    }
+}
+
+LensProfile readOpenCvCalibrationFields(const std::string &path)
 {
     cv::FileStorage fs;
     try {
@@ -181,6 +199,17 @@ LensProfile readOpenCvCalibration(const std::string &path)
         const cv::FileNode n = fs[key];
         if (n.empty() || n.isNone())
             fail(key, "missing");
+        // OpenCV allocates what rows x cols says before it reads the data: a calibration's
+        // matrices are small, and a file claiming more is refused before that.
+        constexpr int kMaxEntries = 16;
+        if (!n.isMap())
+            fail(key, "is not a matrix");
+        const cv::FileNode rows = n["rows"], cols = n["cols"], data = n["data"];
+        if (!rows.isInt() || !cols.isInt() || int(rows) < 1 || int(cols) < 1 || int(rows) > kMaxEntries ||
+            int(cols) > kMaxEntries || int(rows) * int(cols) > kMaxEntries)
+            fail(key, "must be a matrix of at most " + std::to_string(kMaxEntries) + " values");
+        if (!data.isSeq() || int(data.size()) != int(rows) * int(cols))
+            fail(key, "must hold rows x cols values");
         try {
             n >> m;
         } catch (const cv::Exception &) {
@@ -253,6 +282,12 @@ LensProfile readLensProfile(const std::string &path)
     std::ifstream f(path, std::ios::binary);
     if (!f)
         throw LensProfileError(path, "", "cannot be opened");
+    // A calibration is a few kB: a larger file (a video given by mistake) is refused unread.
+    constexpr std::streamoff kMaxBytes = 1 << 20;
+    f.seekg(0, std::ios::end);
+    if (f.tellg() > kMaxBytes)
+        throw LensProfileError(path, "", "is larger than 1 MiB: not a calibration file");
+    f.seekg(0, std::ios::beg);
     std::ostringstream text;
     text << f.rdbuf();
     if (f.bad())

@@ -317,5 +317,39 @@ TEST(LensProfile, BadProfilesNameTheField)
     EXPECT_THROW(readLensProfile(::testing::TempDir() + "missing.json"), LensProfileError);
 }
 
+// Files the lens-profile fuzzer (tests/fuzz/fuzz_lens_profile.cpp) found: each is refused
+// with LensProfileError, not an OpenCV or allocation error.
+TEST(LensProfile, BrokenCalibrationFilesAreRefusedAsProfiles)
+{
+    const std::string matrix_head = "%YAML:1.0\n---\nimage_width: 1920\nimage_height: 1080\n"
+                                    "camera_matrix: !!opencv-matrix\n   rows: ";
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        // rows x cols far beyond the data: OpenCV would allocate them first.
+        {matrix_head + "300000000\n   cols: 300000000\n   dt: d\n   data: [ 1. ]\n", "camera_matrix"},
+        // A YAML document whose root is not a map.
+        {"%YAML:1.0\n---\n- 1\n- 2\n", ""},
+        // Rows and data that disagree.
+        {matrix_head + "3\n   cols: 3\n   dt: d\n   data: [ 1., 2. ]\n", "camera_matrix"},
+    };
+    for (std::size_t i = 0; i < cases.size(); ++i) {
+        const std::string path = writeFile("broken" + std::to_string(i) + ".yml", cases[i].first);
+        try {
+            readLensProfile(path);
+            ADD_FAILURE() << "case " << i << " was read";
+        } catch (const LensProfileError &e) {
+            EXPECT_EQ(e.field(), cases[i].second) << "case " << i << ": " << e.what();
+        } catch (const std::exception &e) {
+            ADD_FAILURE() << "case " << i << " threw something else: " << e.what();
+        }
+    }
+    // A file far larger than any calibration is refused unread.
+    const std::string big = ::testing::TempDir() + "big.json";
+    {
+        std::ofstream f(big, std::ios::binary);
+        f << std::string(2 << 20, ' ');
+    }
+    EXPECT_THROW(readLensProfile(big), LensProfileError);
+}
+
 } // namespace
 } // namespace uavstab
