@@ -3,6 +3,8 @@
 // score), the output path against the true and intended paths, coverage, zoom, ITF, and ours
 // cross-checked against its own FrameStats.
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <cmath>
 #include <future>
 #include <map>
@@ -168,6 +170,29 @@ Metrics analyze(const Clip &clip, const std::vector<Features> &input_features, c
         for (std::size_t i = 0; i < n; ++i)
             m.zoom_stats_max = std::max(m.zoom_stats_max, 1.0 / out.stats[i].output_to_input.scale);
         m.stats = out.stats;
+        // UAVSTAB_BENCH_ZOOM_DUMP=dir: per frame, the registered zoom beside ours' own account
+        // (where a registered magnification comes from: the crop, the path's scale, the
+        // rolling-shutter bend, or the measurement).
+        if (const char *dir = std::getenv("UAVSTAB_BENCH_ZOOM_DUMP")) {
+            const std::string file = std::string(dir) + "/" + clip.name + "_" + method.key + ".tsv";
+            if (std::FILE *f = std::fopen(file.c_str(), "w")) {
+                std::fprintf(f, "frame\treg_zoom\treg_sim_zoom\treg_s1\treg_s2\tinliers\tstats_zoom\tcrop_zoom\t"
+                                "corr_scale\ttraj_scale\tsmoothed_scale\tfraction\twobble\treadout\tskipped\n");
+                for (std::size_t i = 0; i < n; ++i) {
+                    const FrameStats &st = out.stats[i];
+                    double s1 = kNaN, s2 = kNaN;
+                    if (out2in[i].ok)
+                        singularValues(out2in[i].affine, &s1, &s2);
+                    std::fprintf(f, "%zu\t%.5f\t%.5f\t%.5f\t%.5f\t%d\t%.5f\t%.5f\t%.5f\t%.5f\t%.5f\t%.4f\t%.3f\t%.3f\t%d\n",
+                                 i, out2in[i].ok ? 1.0 / std::sqrt(s1 * s2) : kNaN,
+                                 out2in[i].ok ? 1.0 / out2in[i].similarity.scale : kNaN, s1, s2, out2in[i].inliers,
+                                 1.0 / st.output_to_input.scale, st.zoom, st.correction.scale, st.trajectory.scale,
+                                 st.smoothed.scale, st.correction_fraction, st.row_motion.wobble, st.readout,
+                                 int(st.skipped));
+                }
+                std::fclose(f);
+            }
+        }
     }
 
     if (real_measures && stability) {
