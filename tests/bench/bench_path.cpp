@@ -146,7 +146,7 @@ L1PathPlanner::Settings l1Settings(const std::string &spec)
         {"steady_pull", &s.steady_pull},         {"steady_from", &s.steady_from},
         {"steady_full", &s.steady_full},         {"stiffness", &s.stiffness},
         {"young_slope_prior", &s.young_slope_prior}, {"translation_reserve", &s.translation_reserve},
-        {"scale_share", &s.scale_share}, {"speed_weight", &s.speed_weight}};
+        {"scale_share", &s.scale_share}, {"speed_weight", &s.speed_weight}, {"crop", &s.crop}};
     std::map<std::string, int *> ints{{"rounds", &s.rounds},
                                       {"catch_up_window", &s.catch_up_window},
                                       {"catch_up_max_lookahead", &s.catch_up_max_lookahead},
