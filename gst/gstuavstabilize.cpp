@@ -42,6 +42,7 @@
 
 #include <gst/video/video.h>
 
+#include "uavstab/lens.hpp"
 #include "uavstabilize_element.hpp"
 #include "uavstabilize_properties.hpp"
 
@@ -134,6 +135,10 @@ bool startStream(GstUavStabilize *self, UavStabilizeState &s)
     const uavstab::StabilizerConfig config = gstuavstab::takeConfig(self);
     try {
         s.stabilizer = std::make_unique<uavstab::Stabilizer>(config);
+    } catch (const uavstab::LensProfileError &e) {
+        GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS, ("Cannot use the lens profile %s", e.file().c_str()),
+                          ("%s", e.what()));
+        return false;
     } catch (const std::exception &e) {
         GST_ELEMENT_ERROR(self, LIBRARY, SETTINGS, ("Cannot create the stabilizer"), ("%s", e.what()));
         return false;

@@ -59,6 +59,17 @@ GType uavstabilize_rolling_shutter_get_type()
     return registerEnum(&type, "GstUavStabilizeRollingShutter", values);
 }
 
+GType uavstabilize_lens_output_get_type()
+{
+    static gsize type = 0;
+    static const GEnumValue values[] = {
+        {int(uavstab::LensOutput::Original), "The stabilized picture through the same lens (default)", "original"},
+        {int(uavstab::LensOutput::Rectified), "The stabilized picture as a pinhole camera sees it", "rectified"},
+        {0, nullptr, nullptr},
+    };
+    return registerEnum(&type, "GstUavStabilizeLensOutput", values);
+}
+
 GType uavstabilize_border_get_type()
 {
     static gsize type = 0;
@@ -99,6 +110,7 @@ GType uavstabilize_enum_type_for_field(const char *field)
         {"model", uavstabilize_model_get_type},
         {"border", uavstabilize_border_get_type},
         {"rolling_shutter", uavstabilize_rolling_shutter_get_type},
+        {"lens_output", uavstabilize_lens_output_get_type},
     };
     for (const auto &entry : types)
         if (g_strcmp0(entry.field, field) == 0)

@@ -14,6 +14,7 @@ GType uavstabilize_planner_get_type();   // uavstab::PlannerKind
 GType uavstabilize_model_get_type();     // uavstab::ModelChoice
 GType uavstabilize_border_get_type();  // uavstab::BorderMode
 GType uavstabilize_rolling_shutter_get_type();  // uavstab::RollingShutter
+GType uavstabilize_lens_output_get_type();  // uavstab::LensOutput
 GType uavstabilize_render_get_type();  // RenderMode (uavstabilize_settings.hpp), the element's own
 
 // The GEnum type of an enum field of uavstab::StabilizerConfig, by field name ("model");

@@ -72,10 +72,16 @@ void decideRendering(GstUavStabilize *self, UavStabilizeState &s, bool negotiate
     GST_OBJECT_LOCK(self);
     const RenderMode mode = self->settings->render;
     const bool overlay = self->settings->stabilizer.debug_overlay;
+    const bool lens = !self->settings->stabilizer.lens_profile.empty();
     GST_OBJECT_UNLOCK(self);
     const bool downstream_applies = s.downstream_applies_affine_meta.load();
-    // The overlay is drawn into the warped frame, so auto warps while it is on.
-    const bool affine = mode == RenderMode::AffineMeta || (mode == RenderMode::Auto && downstream_applies && !overlay);
+    // The overlay is drawn into the warped frame, so auto warps while it is on. A lens maps
+    // the picture through a mesh, which one affine transform cannot carry: always warped.
+    const bool affine =
+        !lens && (mode == RenderMode::AffineMeta || (mode == RenderMode::Auto && downstream_applies && !overlay));
+    if (lens && mode == RenderMode::AffineMeta && negotiated)
+        GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("render=affine-meta cannot carry a lens profile's warp"),
+                            ("frames are warped on the CPU instead"));
     s.render_mode.store(int(mode));
     const bool changed = s.render_affine_meta.exchange(affine) != affine;
     if (negotiated || changed)
@@ -88,8 +94,9 @@ void decideRendering(GstUavStabilize *self, UavStabilizeState &s, bool negotiate
 void negotiateOutput(GstUavStabilize *self, UavStabilizeState &s, GstCaps *caps, const GstVideoInfo &info)
 {
     GST_OBJECT_LOCK(self);
-    // render=affine-meta never warps: no output buffers at all.
-    const bool want_pool = self->settings->render != RenderMode::AffineMeta;
+    // render=affine-meta never warps (no output buffers at all), unless a lens makes it.
+    const bool want_pool =
+        self->settings->render != RenderMode::AffineMeta || !self->settings->stabilizer.lens_profile.empty();
     GST_OBJECT_UNLOCK(self);
     const OutputAllocation allocation = negotiateOutputAllocation(self->srcpad, caps, info, want_pool);
     s.output.replacePool(allocation.pool);

@@ -167,8 +167,17 @@ bool handleCaps(GstUavStabilize *self, UavStabilizeState &s, EventPtr event)
     GST_DEBUG_OBJECT(self, "new caps %" GST_PTR_FORMAT, caps);
     if (!finalizeHeldFrames(s) || !s.output.waitUntilDrained())
         return false;
-    if (s.stabilizer)
+    if (s.stabilizer) {
         s.stabilizer->reset();
+        try {
+            s.stabilizer->checkFrameSize(GST_VIDEO_INFO_WIDTH(&info), GST_VIDEO_INFO_HEIGHT(&info));
+        } catch (const std::exception &e) {
+            GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("The lens profile is not for frames of %dx%d",
+                                                       GST_VIDEO_INFO_WIDTH(&info), GST_VIDEO_INFO_HEIGHT(&info)),
+                              ("%s", e.what()));
+            return false;
+        }
+    }
 
     gst_caps_replace(&s.caps, caps);
     s.info = info;

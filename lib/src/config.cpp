@@ -66,6 +66,11 @@ const char *toString(RollingShutter r)
     return r == RollingShutter::Off ? "off" : "auto";
 }
 
+const char *toString(LensOutput o)
+{
+    return o == LensOutput::Rectified ? "rectified" : "original";
+}
+
 const char *toString(BorderMode b)
 {
     return b == BorderMode::Replicate ? "replicate" : "black";

@@ -26,6 +26,23 @@ std::string checkExclude(const C &c)
     return checkRects(c.exclude);
 }
 
+std::string lensProfileText(const C &c)
+{
+    return c.lens_profile;
+}
+
+bool setLensProfileText(C &c, const std::string &text, std::string *)
+{
+    c.lens_profile = text;
+    return true;
+}
+
+// The file is read (and its fields checked) when the Stabilizer is built.
+std::string checkLensProfile(const C &)
+{
+    return "";
+}
+
 std::vector<ConfigParam> makeTable()
 {
     // One row per StabilizerConfig field, in declaration order. Defaults are the field
@@ -109,6 +126,16 @@ std::vector<ConfigParam> makeTable()
                                 "The camera sensor's readout time in ms, when known (0 = unknown, estimated from "
                                 "the footage). Known, the skew of a moving camera is corrected too",
                                 0.0, 1000.0),
+        textParam("lens_profile", "Lens profile",
+                  "A lens calibration file: a Gyroflow lens profile (JSON) or an OpenCV calibration (YAML, XML "
+                  "or JSON with camera_matrix and distortion_coefficients). Motion is estimated in the lens's "
+                  "undistorted view and each frame is warped through the lens in one pass; the profile's readout "
+                  "time and shutter type are used unless readout-time or rolling-shutter are set. Empty: none",
+                  &lensProfileText, &setLensProfileText, &checkLensProfile, kParamAtStartOnly),
+        param<&C::lens_output>("lens_output", "Lens output",
+                               "With a lens profile: original (the stabilized picture through the same lens) or "
+                               "rectified (as a pinhole camera sees it)",
+                               LensOutput::Original, LensOutput::Rectified, kParamAtStartOnly),
         param<&C::analysis_width>("analysis_width", "Analysis width",
                                   "Motion is estimated on luma downscaled to this width (full size when smaller)", 16,
                                   16384),

@@ -5,10 +5,13 @@
 #include <stdexcept>
 
 #include "estimate/motion_estimator.hpp"
+#include "lens/lens_view.hpp"
+#include "path/framing.hpp"
 #include "path/path_planner.hpp"
 #include "path/trajectory.hpp"
 #include "render/debug_overlay.hpp"
 #include "render/frame_warper.hpp"
+#include "uavstab/lens.hpp"
 #include "worker_pool.hpp"
 
 namespace uavstab {
@@ -32,6 +35,8 @@ struct Stabilizer::Pending {
     FrameStats stats;
     // Rolling shutter: each output row's own transform (unset: stats.output_to_input for all).
     std::optional<RowTransforms> rows;
+    // The lens the frame is seen through (null: none).
+    std::shared_ptr<const LensView> lens;
     Outcome outcome = Outcome::Warped;
     std::string error;          // written under Stabilizer::mutex_
     std::atomic<int> stripes_left{0};
@@ -57,10 +62,14 @@ bool samePlanner(const StabilizerConfig &a, const StabilizerConfig &b)
 }
 } // namespace
 
-Stabilizer::Stabilizer(const StabilizerConfig &config)
-    : config_(config), estimator_(std::make_unique<MotionEstimator>(config)), trajectory_(std::make_unique<Trajectory>())
+Stabilizer::Stabilizer(const StabilizerConfig &config) : config_(config), trajectory_(std::make_unique<Trajectory>())
 {
     config_.validate();
+    if (!config_.lens_profile.empty())
+        lens_profile_ = std::make_unique<const LensProfile>(readLensProfile(config_.lens_profile));
+    lens_output_ = config_.lens_output;
+    config_ = withLens(config_);
+    estimator_ = std::make_unique<MotionEstimator>(config_);
     frame_config_ = std::make_shared<const StabilizerConfig>(config_);
     pool_ = std::make_unique<WorkerPool>(config_.resolvedThreads());
     // A worker with nothing queued (no warp) joins in the estimation's downscale and
@@ -77,6 +86,32 @@ Stabilizer::~Stabilizer()
     // pool's destructor runs what is left, so resetting first would crash.
     pool_->waitIdle();
     pool_.reset();
+}
+
+// The lens settings it was built with, and what the profile says of the sensor where the
+// config leaves it open: a known readout time, a global shutter (nothing to correct).
+StabilizerConfig Stabilizer::withLens(StabilizerConfig config) const
+{
+    config.lens_profile = config_.lens_profile;
+    config.lens_output = lens_output_;
+    if (lens_profile_) {
+        if (config.readout_time == 0.0 && lens_profile_->readout_time > 0.0 && !lens_profile_->readout_bottom_up)
+            config.readout_time = lens_profile_->readout_time;
+        if (lens_profile_->global_shutter && config.readout_time == 0.0)
+            config.rolling_shutter = RollingShutter::Off;
+    }
+    return config;
+}
+
+void Stabilizer::checkFrameSize(int width, int height) const
+{
+    if (!lens_profile_)
+        return;
+    try {
+        (void)lens_profile_->lens.scaledTo(width, height);
+    } catch (const std::invalid_argument &e) {
+        throw std::invalid_argument(config_.lens_profile + ": calib_dimension: " + e.what());
+    }
 }
 
 void Stabilizer::setConfig(const StabilizerConfig &config)
@@ -98,7 +133,7 @@ void Stabilizer::applyConfig()
     if (!next_config_)
         return;
     const int threads = config_.threads;
-    config_ = *next_config_;
+    config_ = withLens(*next_config_);
     config_.threads = threads;  // the pool is rebuilt only in reset()
     next_config_.reset();
     estimator_->setConfig(config_);
@@ -160,6 +195,13 @@ void Stabilizer::pushHeld(std::unique_ptr<FrameSlot> slot)
     const FrameView frame = slot->input();
     if (!frame.valid())
         throw std::invalid_argument("Stabilizer::push: invalid frame view");
+    const bool new_geometry = !have_geometry_ || !frame.sameGeometry(geometry_);
+    std::shared_ptr<const LensView> lens_view = lens_view_;
+    if (lens_profile_ && new_geometry) {
+        checkFrameSize(frame.width, frame.height);
+        lens_view = std::make_shared<const LensView>(lens_profile_->lens.scaledTo(frame.width, frame.height),
+                                                     lens_output_, frame.width, frame.height);
+    }
     applyConfig();
 
     if (have_geometry_ && !frame.sameGeometry(geometry_)) {
@@ -168,6 +210,10 @@ void Stabilizer::pushHeld(std::unique_ptr<FrameSlot> slot)
     }
     geometry_ = frame;
     have_geometry_ = true;
+    if (lens_view != lens_view_) {
+        lens_view_ = std::move(lens_view);
+        estimator_->setLens(lens_view_);
+    }
     if (discontinuity_)
         estimator_->reset();
 
@@ -222,6 +268,7 @@ void Stabilizer::finalizeOldest()
     auto pending = std::make_shared<Pending>();
     pending->stats = held.stats;
     pending->input = held.slot->input();
+    pending->lens = lens_view_;
     if (config_.bypass) {
         pending->outcome = Outcome::Bypassed;
     } else {
@@ -293,6 +340,30 @@ void Stabilizer::planNext()
     pool_->submit([this] { planNext(); });
 }
 
+namespace {
+
+// The planners keep the crop window's corners inside the frame as a pinhole camera sees it;
+// through a lens the frame's edges bend, so the correction is shrunk further where some of
+// the output would still read outside the picture.
+void keepInsideThroughLens(const LensView &lens, FrameStats &stats)
+{
+    const Similarity unzoom{0.0, 0.0, 0.0, 1.0 / stats.zoom};
+    auto mapping = [&](double t) { return scaleCorrection(stats.correction, t).inverse() * unzoom; };
+    if (lens.coversFrame(stats.output_to_input, stats.zoom))
+        return;
+    constexpr int kBisectionSteps = 14;
+    double lo = 0.0, hi = 1.0;
+    for (int i = 0; i < kBisectionSteps; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (lens.coversFrame(mapping(mid), stats.zoom) ? lo : hi) = mid;
+    }
+    stats.correction = scaleCorrection(stats.correction, lo);
+    stats.output_to_input = stats.correction.inverse() * unzoom;
+    stats.correction_fraction *= lo;
+}
+
+} // namespace
+
 void Stabilizer::planAndWarp(PlanJob &job)
 {
     const std::shared_ptr<Pending> &pending = job.pending;
@@ -307,6 +378,8 @@ void Stabilizer::planAndWarp(PlanJob &job)
         stats.zoom = planned.zoom;
         stats.correction_fraction = planned.correction_fraction;
         stats.output_to_input = planned.output_to_input;
+        if (pending->lens && job.config->limit_to_crop)
+            keepInsideThroughLens(*pending->lens, stats);
         if (!stats.row_motion.empty() && pending->input.height > 1)
             pending->rows = rollingShutterWarp(stats.output_to_input, stats.row_motion, pending->input.width,
                                                pending->input.height);
@@ -431,7 +504,7 @@ void Stabilizer::reset()
             pending->slot.reset();
         finalized_.clear();
         if (next_config_) {
-            config_ = *next_config_;
+            config_ = withLens(*next_config_);
             next_config_.reset();
         }
     }

@@ -41,6 +41,12 @@ enum class RollingShutter {
     Off,   // every frame is taken as one picture of one instant
 };
 
+// What a stream calibrated by a lens profile gets back (StabilizerConfig::lens_profile).
+enum class LensOutput {
+    Original,   // the stabilized picture through the same lens: what that camera's footage looks like
+    Rectified,  // the stabilized picture as a pinhole camera with the lens's camera matrix sees it
+};
+
 enum class BorderMode {
     Black,      // uncovered output pixels are black
     Replicate,  // uncovered output pixels repeat the nearest edge pixel
@@ -126,6 +132,16 @@ struct StabilizerConfig {
     // frame rate: Stabilizer::setFrameInterval).
     double readout_time = 0.0;
 
+    // A lens calibration file: a Gyroflow lens profile (JSON) or an OpenCV calibration
+    // (cv::FileStorage YAML, XML or JSON; lens.hpp, readLensProfile). Motion is then
+    // estimated and the path planned in the lens's undistorted (pinhole) view, and each
+    // frame is warped through the lens in one pass. Its readout time and shutter type
+    // feed the rolling-shutter settings where those are left at their defaults (readout_time
+    // 0, rolling_shutter auto). Read when the Stabilizer is built: a file it cannot use
+    // throws LensProfileError there. Empty: no lens (a pinhole view).
+    std::string lens_profile;
+    LensOutput lens_output = LensOutput::Original;
+
     // Motion is estimated on luma downscaled to this width (full size when smaller);
     // the motion is scaled back to full resolution.
     int analysis_width = 640;
@@ -151,6 +167,7 @@ struct StabilizerConfig {
 const char *toString(ModelChoice m);
 const char *toString(BorderMode b);
 const char *toString(RollingShutter r);
+const char *toString(LensOutput o);
 const char *toString(PlannerKind p);
 
 } // namespace uavstab

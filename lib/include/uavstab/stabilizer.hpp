@@ -34,6 +34,8 @@
 
 namespace uavstab {
 
+class LensView;
+struct LensProfile;
 class MotionEstimator;
 class PathPlanner;
 class Trajectory;
@@ -68,6 +70,8 @@ struct StabilizedFrame {
 
 class Stabilizer {
 public:
+    // Throws std::invalid_argument for an invalid config, LensProfileError (lens.hpp) for a
+    // lens profile (config.lens_profile) it cannot use.
     explicit Stabilizer(const StabilizerConfig &config = {});
     // Waits for warps in flight; frames not popped are destroyed with their slots.
     ~Stabilizer();
@@ -76,8 +80,8 @@ public:
 
     // Estimates the frame's motion and queues it. A frame of another format or size than
     // the previous one first flushes the held frames and starts a new path.
-    // Throws std::invalid_argument for a null slot or an invalid frame view, before the
-    // frame is queued (the slot is then destroyed, nothing else changes). Once queued, a
+    // Throws std::invalid_argument for a null slot, an invalid frame view or a frame size
+    // the lens profile is not for (checkFrameSize), before the frame is queued (the slot is then destroyed, nothing else changes). Once queued, a
     // frame always comes back: estimation failures give it identity motion instead.
     void push(std::unique_ptr<FrameSlot> slot);
     // push() in two steps, for a caller that keeps few output frames in flight: pushHeld()
@@ -119,6 +123,10 @@ public:
     // (config.readout_time) is measured against. Control thread; takes effect at once.
     void setFrameInterval(double milliseconds);
 
+    // Throws std::invalid_argument, naming the lens profile's file and field, when frames of
+    // this size cannot be seen through it (another aspect ratio than its calibration's).
+    void checkFrameSize(int width, int height) const;
+
     std::size_t heldCount() const;      // in the delay buffer
     std::size_t finalizedCount() const; // finalized, not yet popped
 
@@ -135,6 +143,7 @@ private:
     StabilizedFrame take(std::unique_lock<std::mutex> &lock);
     void waitForAllFinalized(std::unique_lock<std::mutex> &lock);
     void applyConfig();
+    StabilizerConfig withLens(StabilizerConfig config) const;
 
     // Control-thread state.
     StabilizerConfig config_;
@@ -147,6 +156,10 @@ private:
     bool discontinuity_ = true;
     bool have_geometry_ = false;
     FrameView geometry_;
+    // config.lens_profile, read when built, and the lens at the frames' size.
+    std::unique_ptr<const LensProfile> lens_profile_;
+    LensOutput lens_output_ = LensOutput::Original;
+    std::shared_ptr<const LensView> lens_view_;
 
     // Shared with workers and poppers, under mutex_.
     mutable std::mutex mutex_;

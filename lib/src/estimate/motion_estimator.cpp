@@ -79,6 +79,11 @@ void MotionEstimator::setShareWork(ShareWork share)
     tracker_.setShareWork(std::move(share));
 }
 
+void MotionEstimator::setLens(std::shared_ptr<const LensView> lens)
+{
+    lens_ = std::move(lens);
+}
+
 void MotionEstimator::setFrameInterval(double milliseconds)
 {
     const double interval = milliseconds > 0.0 && std::isfinite(milliseconds) ? milliseconds : 0.0;
@@ -185,9 +190,19 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
 
     const double threshold = kInlierThresholdAnalysisPx * scale;
     const std::uint32_t seed = ++frame_count_;
-    // The motion maps this frame's points onto the previous frame's.
-    const auto &from = matches.current;
-    const auto &to = matches.previous;
+    // The motion maps this frame's points onto the previous frame's: in the lens's
+    // undistorted view where there is a lens, since the picture moves as a similarity there.
+    std::vector<Point2> undistorted_from, undistorted_to;
+    if (lens_) {
+        undistorted_from.reserve(matches.current.size());
+        undistorted_to.reserve(matches.previous.size());
+        for (const Point2 &p : matches.current)
+            undistorted_from.push_back(lens_->undistortCentred(p));
+        for (const Point2 &p : matches.previous)
+            undistorted_to.push_back(lens_->undistortCentred(p));
+    }
+    const std::vector<Point2> &from = lens_ ? undistorted_from : matches.current;
+    const std::vector<Point2> &to = lens_ ? undistorted_to : matches.previous;
 
     RobustFit fit;
     MotionModel model;

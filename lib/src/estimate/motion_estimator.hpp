@@ -11,6 +11,7 @@
 #include "estimate/hybrid_selector.hpp"
 #include "estimate/motion_model.hpp"
 #include "estimate/rolling_shutter_estimator.hpp"
+#include "lens/lens_view.hpp"
 
 namespace uavstab {
 
@@ -57,6 +58,9 @@ public:
     void setFrameInterval(double milliseconds);
     // See FeatureTracker::setShareWork.
     void setShareWork(ShareWork share);
+    // The lens the frames are seen through (null: none): the motion is then fitted to the
+    // tracks undistorted, so that it is the motion of the lens's pinhole view.
+    void setLens(std::shared_ptr<const LensView> lens);
 
 private:
     RollingShutterEstimator::Settings rollingShutterSettings() const;
@@ -70,6 +74,7 @@ private:
     RowMotion last_rows_;  // the previous frame's
     bool wide_detection_ = false;  // corners over the whole height (a wobble is corrected)
     double frame_interval_ms_ = 0.0;
+    std::shared_ptr<const LensView> lens_;
     // exclude_static: where screen-fixed tracks were seen. Kept across reset() (an overlay
     // outlives a scene cut), cleared when the option is switched off.
     std::unique_ptr<ScreenFixedMap> screen_fixed_;
