@@ -11,6 +11,7 @@
 #include "path/trajectory.hpp"
 #include "render/debug_overlay.hpp"
 #include "render/frame_warper.hpp"
+#include "render/lens_meshes.hpp"
 #include "uavstab/lens.hpp"
 #include "worker_pool.hpp"
 
@@ -35,8 +36,9 @@ struct Stabilizer::Pending {
     FrameStats stats;
     // Rolling shutter: each output row's own transform (unset: stats.output_to_input for all).
     std::optional<RowTransforms> rows;
-    // The lens the frame is seen through (null: none).
+    // The lens the frame is seen through (null: none), and then the warp's mesh per plane.
     std::shared_ptr<const LensView> lens;
+    std::vector<WarpMesh> meshes;
     Outcome outcome = Outcome::Warped;
     std::string error;          // written under Stabilizer::mutex_
     std::atomic<int> stripes_left{0};
@@ -398,6 +400,31 @@ void Stabilizer::planAndWarp(PlanJob &job)
         return;
     }
 
+    if (pending->lens) {
+        try {
+            if (!lens_meshes_ || lens_meshes_->lens() != pending->lens)
+                lens_meshes_ = std::make_unique<LensMeshes>(pending->lens);
+            const int width = pending->input.width, height = pending->input.height;
+            if (pending->rows) {
+                const RowMatrices rows(*pending->rows, width, height);
+                pending->meshes = lens_meshes_->meshes(pending->input, stats.zoom,
+                                                       [&rows](double y) { return rows.at(y); });
+            } else {
+                const std::array<double, 6> m = stats.output_to_input.pixelMatrix(width, height);
+                pending->meshes = lens_meshes_->meshes(pending->input, stats.zoom, [&m](double) { return m; });
+            }
+        } catch (const std::exception &e) {
+            std::lock_guard<std::mutex> lock(mutex_);
+            pending->outcome = Outcome::Failed;
+            pending->error = std::string("mapping the frame through the lens failed: ") + e.what();
+            pending->stripes_left = 1;
+        }
+        if (pending->outcome != Outcome::Warped) {
+            completeStripe(pending);
+            return;
+        }
+    }
+
     // Image composition, split into row stripes so that all workers share one frame and
     // the frame is ready as soon as possible.
     const BorderMode border = job.config->border;
@@ -419,7 +446,9 @@ void Stabilizer::planAndWarp(PlanJob &job)
 void Stabilizer::runStripe(const std::shared_ptr<Pending> &pending, BorderMode border, int begin, int end)
 {
     try {
-        if (pending->rows)
+        if (!pending->meshes.empty())
+            FrameWarper(border).warpRows(pending->input, pending->output, pending->meshes, begin, end);
+        else if (pending->rows)
             FrameWarper(border).warpRows(pending->input, pending->output, *pending->rows, begin, end);
         else
             FrameWarper(border).warpRows(pending->input, pending->output, pending->stats.output_to_input, begin, end);
@@ -512,6 +541,7 @@ void Stabilizer::reset()
     pool_->waitIdle();
     planner_.reset();
     planner_config_.reset();
+    lens_meshes_.reset();
     frame_config_ = std::make_shared<const StabilizerConfig>(config_);
     estimator_->setConfig(config_);
     estimator_->reset();

@@ -34,6 +34,7 @@
 
 namespace uavstab {
 
+class LensMeshes;
 class LensView;
 struct LensProfile;
 class MotionEstimator;
@@ -174,6 +175,7 @@ private:
     // with the pool idle).
     std::unique_ptr<PathPlanner> planner_;
     std::shared_ptr<const StabilizerConfig> planner_config_;
+    std::unique_ptr<LensMeshes> lens_meshes_;  // the lens's warp, while there is one
 
     std::unique_ptr<WorkerPool> pool_;  // last: destroyed (joined) first
 };
