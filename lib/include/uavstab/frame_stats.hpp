@@ -43,7 +43,10 @@ struct FrameStats {
     Similarity correction;    // applied to the frame: input -> stabilized (before zoom)
     double zoom = 1.0;        // crop zoom of the output
     // What the warper drew: output pixel -> input pixel, centred coordinates
-    // (correction^-1 * zoom^-1), so consumers need not rebuild it.
+    // (correction^-1 * zoom^-1), so consumers need not rebuild it. With a lens profile,
+    // motion, paths, correction and this are in the lens's undistorted (pinhole) view; with
+    // lens_output original the crop zoom is applied to the lens's picture instead
+    // (lib/src/lens/lens_view.hpp has the whole chain).
     Similarity output_to_input;
     double correction_fraction = 1.0;  // < 1 when the correction was limited to the crop
     MotionModel model = MotionModel::Rigid;

@@ -1,8 +1,8 @@
 // The camera's lens: OpenCV's fisheye model (k1-k4) or its standard model (k1, k2, p1, p2,
 // k3), and the calibration files drone users have (Gyroflow lens profiles, OpenCV
 // calibrations): a pixel's undistorted (pinhole) position and back, and the file reader. The
-// Stabilizer does not take a lens: this header is for code that maps points or pictures
-// through one.
+// Stabilizer takes a calibration file (StabilizerConfig::lens_profile) and reads it with
+// readLensProfile(); this header is also for code that maps points or pictures through one.
 //
 // Public API: LensModel's fields and the meaning of distort()/undistort() hold from version
 // to version; readLensProfile() keeps reading the formats listed at it.
