@@ -17,6 +17,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "shaky_flight.hpp"
+#include "truth_csv.hpp"
 #include "wobble_metric.hpp"
 
 using namespace uavstab;
@@ -670,4 +671,28 @@ TEST(ShakyFlightLens, LensFlightsStayOnTheCanvas)
                     c.name, w, h, c.options.seed, f.undistortedFootprint().width, f.undistortedFootprint().height,
                     f.worldToCanvas().scale, closest);
     }
+}
+
+// uavstab-render-flight --lens-out: the calibration beside the clip reads back as the lens.
+TEST(ShakyFlightLens, CalibrationFileReadsBack)
+{
+    for (const LensModel &lens : {fisheyeLens(640, 360), wideAngleLens(1280, 720)}) {
+        for (const char *extension : {".yml", ".json"}) {
+            const std::string path = ::testing::TempDir() + "shaky_flight_lens" + extension;
+            writeLensCalibration(path, lens);
+            const LensProfile read = readLensProfile(path);
+            std::remove(path.c_str());
+            EXPECT_EQ(read.lens.kind, lens.kind) << extension;
+            EXPECT_EQ(read.lens.width, lens.width);
+            EXPECT_EQ(read.lens.height, lens.height);
+            EXPECT_DOUBLE_EQ(read.lens.fx, lens.fx);
+            EXPECT_DOUBLE_EQ(read.lens.fy, lens.fy);
+            EXPECT_DOUBLE_EQ(read.lens.cx, lens.cx);
+            EXPECT_DOUBLE_EQ(read.lens.cy, lens.cy);
+            for (std::size_t k = 0; k < 5; ++k)
+                EXPECT_DOUBLE_EQ(read.lens.coeffs[k], lens.coeffs[k]) << "coefficient " << k;
+        }
+    }
+    EXPECT_THROW(writeLensCalibration(::testing::TempDir() + "none.yml", LensModel{}), std::invalid_argument);
+    EXPECT_THROW(fisheyeLens(640, 360, 180.0), std::invalid_argument);
 }
