@@ -4,6 +4,7 @@
 //   uavstab-render-flight OUT.y4m [--width W] [--height H] [--frames N] [--fps F]
 //                         [--seed S] [--objects K] [--zoom A] [--profile lissajous|manoeuvre]
 //                         [--readout R] [--vibration-hz F] [--vibration-px A] [--vibration-deg A]
+//                         [--lens fisheye|wide] [--lens-fov DEG] [--lens-out LENS.yml]
 //                         [--truth OUT.csv]
 // --profile manoeuvre: hover, accelerating pans, a yaw turn, stops, a climb (see
 // shaky_flight.hpp); --zoom then has no effect. The CSV holds the intended path beside the
@@ -11,6 +12,10 @@
 // --readout: rolling shutter, share of the frame time the rows take to read (0 = global
 // shutter); --vibration-*: propeller vibration, frequency (Hz) and RMS per axis (px for x and
 // y, degrees for roll), e.g. --readout 0.8 --vibration-hz 47 --vibration-px 2 --vibration-deg 0.1.
+// --lens: seen through a fisheye (150 deg diagonal) or wide-angle lens (110 deg diagonal; see
+// fisheyeLens and wideAngleLens in shaky_flight.hpp), --lens-fov another diagonal field of
+// view; the truth CSV stays in undistorted (pinhole) coordinates. --lens-out writes the lens
+// as an OpenCV calibration (.yml, .xml or .json), as uavstab::readLensProfile reads it.
 #include <cstdio>
 #include <cstdlib>
 #include <cmath>
@@ -27,7 +32,8 @@ using namespace uavstab;
 int main(int argc, char **argv)
 {
     synthetic::FlightOptions options;
-    std::string out, truth;
+    std::string out, truth, lens_name, lens_out;
+    double lens_fov = 0.0;
     for (int i = 1; i < argc; ++i) {
         const std::string arg = argv[i];
         auto value = [&]() -> const char * {
@@ -59,6 +65,12 @@ int main(int argc, char **argv)
             options.vibration_px = std::atof(value());
         else if (arg == "--vibration-deg")
             options.vibration_deg = std::atof(value());
+        else if (arg == "--lens")
+            lens_name = value();
+        else if (arg == "--lens-fov")
+            lens_fov = std::atof(value());
+        else if (arg == "--lens-out")
+            lens_out = value();
         else if (arg == "--profile") {
             const std::string p = value();
             if (p == "lissajous")
@@ -74,7 +86,8 @@ int main(int argc, char **argv)
         else if (arg == "-h" || arg == "--help") {
             std::cout << "usage: uavstab-render-flight OUT.y4m [--width W] [--height H] [--frames N] [--fps F]"
                          " [--seed S] [--objects K] [--zoom A] [--profile lissajous|manoeuvre]\n"
-                         "       [--readout R] [--vibration-hz F] [--vibration-px A] [--vibration-deg A] [--truth OUT.csv]\n";
+                         "       [--readout R] [--vibration-hz F] [--vibration-px A] [--vibration-deg A]\n"
+                         "       [--lens fisheye|wide] [--lens-fov DEG] [--lens-out LENS.yml] [--truth OUT.csv]\n";
             return 0;
         } else if (out.empty() && arg[0] != '-')
             out = arg;
@@ -87,7 +100,23 @@ int main(int argc, char **argv)
         std::cerr << "usage: uavstab-render-flight OUT.y4m [options] (--help)\n";
         return 2;
     }
+    if (!lens_name.empty() && lens_name != "fisheye" && lens_name != "wide") {
+        std::cerr << "--lens: fisheye or wide, not " << lens_name << "\n";
+        return 2;
+    }
+    if ((lens_fov != 0.0 || !lens_out.empty()) && lens_name.empty()) {
+        std::cerr << "--lens-fov and --lens-out need --lens\n";
+        return 2;
+    }
     try {
+        if (lens_name == "fisheye")
+            options.lens = lens_fov > 0 ? synthetic::fisheyeLens(options.width, options.height, lens_fov)
+                                        : synthetic::fisheyeLens(options.width, options.height);
+        else if (lens_name == "wide")
+            options.lens = lens_fov > 0 ? synthetic::wideAngleLens(options.width, options.height, lens_fov)
+                                        : synthetic::wideAngleLens(options.width, options.height);
+        if (!lens_out.empty())
+            synthetic::writeLensCalibration(lens_out, options.lens);
         options.format = PixelFormat::I420;
         const synthetic::ShakyFlight flight(options);
         synthetic::Y4mWriter writer(out, options.width, options.height, int(std::lround(options.fps * 1000)), 1000);

@@ -92,6 +92,54 @@ std::string defaultCanvasPath()
     return std::string(UAVSTAB_DATA_DIR) + "/aero1.jpg";
 }
 
+namespace {
+
+// Half the frame's diagonal, from the centre to a corner's outer edge.
+double halfDiagonal(int width, int height)
+{
+    return 0.5 * std::hypot(double(width), double(height));
+}
+
+void checkFieldOfView(double diagonal_fov_deg)
+{
+    if (!(diagonal_fov_deg > 0.0 && diagonal_fov_deg < 180.0))
+        throw std::invalid_argument("lens: the diagonal field of view must be between 0 and 180 degrees");
+}
+
+LensModel centredLens(LensKind kind, int width, int height, double focal, const std::array<double, 5> &coeffs)
+{
+    LensModel lens;
+    lens.kind = kind;
+    lens.fx = lens.fy = focal;
+    lens.cx = (width - 1) * 0.5;
+    lens.cy = (height - 1) * 0.5;
+    lens.coeffs = coeffs;
+    lens.width = width;
+    lens.height = height;
+    lens.validate();
+    return lens;
+}
+
+} // namespace
+
+LensModel fisheyeLens(int width, int height, double diagonal_fov_deg)
+{
+    checkFieldOfView(diagonal_fov_deg);
+    const std::array<double, 5> k{0.05, 0.01, -0.01, 0.005, 0.0};
+    const double theta = radians(0.5 * diagonal_fov_deg), t2 = theta * theta;
+    const double theta_d = theta * (1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))));
+    return centredLens(LensKind::Fisheye, width, height, halfDiagonal(width, height) / theta_d, k);
+}
+
+LensModel wideAngleLens(int width, int height, double diagonal_fov_deg)
+{
+    checkFieldOfView(diagonal_fov_deg);
+    const std::array<double, 5> k{-0.25, 0.07, 0.0, 0.0, 0.0};
+    const double r = std::tan(radians(0.5 * diagonal_fov_deg)), r2 = r * r;
+    const double r_d = r * (1.0 + r2 * (k[0] + r2 * k[1]));
+    return centredLens(LensKind::Standard, width, height, halfDiagonal(width, height) / r_d, k);
+}
+
 ShakyFlight::ShakyFlight(const FlightOptions &options)
     : options_(options)
 {
@@ -102,7 +150,42 @@ ShakyFlight::ShakyFlight(const FlightOptions &options)
     if (canvas_.empty())
         throw std::runtime_error("ShakyFlight: cannot read canvas " + path);
 
-    base_scale_ = kFootprint * std::min(double(canvas_.cols) / options_.width, double(canvas_.rows) / options_.height);
+    // The view's extent in pinhole pixels: with a lens, the bounding box of the undistorted
+    // frame (its pixels' outer edges), which for a fisheye is several times the frame.
+    footprint_ = cv::Size2d(options_.width, options_.height);
+    if (options_.lens.active()) {
+        options_.lens = options_.lens.scaledTo(options_.width, options_.height);
+        options_.lens.validate();
+        const double cx = (options_.width - 1) * 0.5, cy = (options_.height - 1) * 0.5;
+        double half_w = 0.0, half_h = 0.0;
+        auto extend = [&](double x, double y) {
+            const Point2 u = options_.lens.undistort({x, y});
+            half_w = std::max(half_w, std::abs(u.x - cx));
+            half_h = std::max(half_h, std::abs(u.y - cy));
+        };
+        const double left = -0.5, right = options_.width - 0.5, top = -0.5, bottom = options_.height - 0.5;
+        for (double x = left; x <= right; x += 0.5) {
+            extend(x, top);
+            extend(x, bottom);
+        }
+        for (double y = top; y <= bottom; y += 0.5) {
+            extend(left, y);
+            extend(right, y);
+        }
+        footprint_ = cv::Size2d(2 * half_w, 2 * half_h);
+
+        undistorted_.create(options_.height, options_.width, CV_64FC2);
+        for (int r = 0; r < options_.height; ++r) {
+            cv::Vec2d *u = undistorted_.ptr<cv::Vec2d>(r);
+            for (int c = 0; c < options_.width; ++c) {
+                const Point2 p = options_.lens.undistort({double(c), double(r)});
+                u[c] = {p.x, p.y};
+            }
+        }
+    }
+    const double view_w = footprint_.width, view_h = footprint_.height;
+
+    base_scale_ = kFootprint * std::min(double(canvas_.cols) / view_w, double(canvas_.rows) / view_h);
 
     std::mt19937 rng(options_.seed);
     std::uniform_real_distribution<double> phase(0.0, 2 * kPi);
@@ -113,8 +196,8 @@ ShakyFlight::ShakyFlight(const FlightOptions &options)
     // footprint, in world units.
     const double max_angle = radians(options_.rotation_amplitude_deg + 4 * options_.rotation_band_deg);
     const double zoom = 1.0 + options_.zoom_amplitude;
-    const double half_w = 0.5 * zoom * (options_.width * std::cos(max_angle) + options_.height * std::sin(max_angle));
-    const double half_h = 0.5 * zoom * (options_.height * std::cos(max_angle) + options_.width * std::sin(max_angle));
+    const double half_w = 0.5 * zoom * (view_w * std::cos(max_angle) + view_h * std::sin(max_angle));
+    const double half_h = 0.5 * zoom * (view_h * std::cos(max_angle) + view_w * std::sin(max_angle));
     const double shake = 4 * (options_.band_px + options_.noise_px);
     path_amplitude_.x = std::max(0.0, 0.5 * canvas_.cols / base_scale_ - half_w - shake);
     path_amplitude_.y = std::max(0.0, 0.5 * canvas_.rows / base_scale_ - half_h - shake);
@@ -133,8 +216,8 @@ ShakyFlight::ShakyFlight(const FlightOptions &options)
         for (int k = 0; k <= int(std::ceil(end * options_.fps)); ++k) {
             const Similarity p = manoeuvrePose(std::min(k / options_.fps, end), 1.0);
             const double a = std::min(std::abs(p.angle) + angle_margin, 0.5 * kPi);
-            const double hw = 0.5 * p.scale * (options_.width * std::cos(a) + options_.height * std::sin(a));
-            const double hh = 0.5 * p.scale * (options_.height * std::cos(a) + options_.width * std::sin(a));
+            const double hw = 0.5 * p.scale * (view_w * std::cos(a) + view_h * std::sin(a));
+            const double hh = 0.5 * p.scale * (view_h * std::cos(a) + view_w * std::sin(a));
             const double room_x = std::max(0.0, half_cw - hw - shake * p.scale);
             const double room_y = std::max(0.0, half_ch - hh - shake * p.scale);
             if (std::abs(p.dx) > room_x)
@@ -336,33 +419,53 @@ cv::Mat ShakyFlight::renderBgr(int i) const
                 o.patch(cv::Rect(target.x - x, target.y - y, target.width, target.height)).copyTo(scene(target));
         }
     }
-    // canvas = centre + base_scale * pose(p), p = output pixel - output centre.
-    const Similarity world_to_canvas{canvas_centre.x, canvas_centre.y, 0.0, base_scale_};
-    const double cx = (options_.width - 1) * 0.5, cy = (options_.height - 1) * 0.5;
-    auto canvas_from_output = [&](const Similarity &pose) {
-        const auto m = (world_to_canvas * pose).pixelMatrix(options_.width, options_.height);
-        // pixelMatrix adds the output centre back on both sides; undo it on the canvas side.
-        return std::array<double, 6>{m[0], m[1], m[2] - cx, m[3], m[4], m[5] - cy};
-    };
     cv::Mat out;
-    if (options_.readout == 0) {
-        auto matrix = canvas_from_output(truePose(i));
-        cv::warpAffine(scene, out, cv::Mat(2, 3, CV_64F, matrix.data()), cv::Size(options_.width, options_.height),
-                       cv::INTER_CUBIC | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT_101);
+    const cv::Size size(options_.width, options_.height);
+    if (options_.readout == 0 && !options_.lens.active()) {
+        auto matrix = canvasFromOutput(truePose(i));
+        cv::warpAffine(scene, out, cv::Mat(2, 3, CV_64F, matrix.data()), size, cv::INTER_CUBIC | cv::WARP_INVERSE_MAP,
+                       cv::BORDER_REFLECT_101);
         return out;
     }
-    // Rolling shutter: every row has its own pose, so one remap map row by row.
-    cv::Mat map_x(options_.height, options_.width, CV_32F), map_y(options_.height, options_.width, CV_32F);
+    // Rolling shutter or lens: one remap, the map made row by row (every row has its pose;
+    // with a lens every pixel is sampled at its undistorted position).
+    cv::Mat map_x(size, CV_32F), map_y(size, CV_32F);
+    const Similarity frame_pose = truePose(i);
     for (int r = 0; r < options_.height; ++r) {
-        const auto m = canvas_from_output(truePoseAtRow(i, r));
+        const auto m = canvasFromOutput(options_.readout == 0 ? frame_pose : truePoseAtRow(i, r));
         float *mx = map_x.ptr<float>(r), *my = map_y.ptr<float>(r);
-        for (int c = 0; c < options_.width; ++c) {
-            mx[c] = float(m[0] * c + m[1] * r + m[2]);
-            my[c] = float(m[3] * c + m[4] * r + m[5]);
+        if (options_.lens.active()) {
+            const cv::Vec2d *u = undistorted_.ptr<cv::Vec2d>(r);
+            for (int c = 0; c < options_.width; ++c) {
+                mx[c] = float(m[0] * u[c][0] + m[1] * u[c][1] + m[2]);
+                my[c] = float(m[3] * u[c][0] + m[4] * u[c][1] + m[5]);
+            }
+        } else {
+            for (int c = 0; c < options_.width; ++c) {
+                mx[c] = float(m[0] * c + m[1] * r + m[2]);
+                my[c] = float(m[3] * c + m[4] * r + m[5]);
+            }
         }
     }
     cv::remap(scene, out, map_x, map_y, cv::INTER_CUBIC, cv::BORDER_REFLECT_101);
     return out;
+}
+
+std::array<double, 6> ShakyFlight::canvasFromOutput(const Similarity &pose) const
+{
+    // canvas = canvas centre + base_scale * pose(p), p = output pixel - output centre.
+    const Similarity world_to_canvas{(canvas_.cols - 1) * 0.5, (canvas_.rows - 1) * 0.5, 0.0, base_scale_};
+    const double cx = (options_.width - 1) * 0.5, cy = (options_.height - 1) * 0.5;
+    const auto m = (world_to_canvas * pose).pixelMatrix(options_.width, options_.height);
+    // pixelMatrix adds the output centre back on both sides; undo it on the canvas side.
+    return {m[0], m[1], m[2] - cx, m[3], m[4], m[5] - cy};
+}
+
+Point2 ShakyFlight::canvasPosition(int i, Point2 pixel) const
+{
+    const Point2 u = options_.lens.active() ? options_.lens.undistort(pixel) : pixel;
+    const auto m = canvasFromOutput(options_.readout == 0 ? truePose(i) : truePoseAtRow(i, pixel.y));
+    return {m[0] * u.x + m[1] * u.y + m[2], m[3] * u.x + m[4] * u.y + m[5]};
 }
 
 FrameBuffer ShakyFlight::render(int i, int row_padding) const

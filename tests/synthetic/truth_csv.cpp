@@ -1,6 +1,7 @@
 #include "truth_csv.hpp"
 
 #include <fstream>
+#include <opencv2/core/persistence.hpp>
 #include <sstream>
 #include <stdexcept>
 
@@ -37,6 +38,23 @@ std::vector<Similarity> readTruthCsv(const std::string &path)
             poses.push_back(p);
     }
     return poses;
+}
+
+void writeLensCalibration(const std::string &path, const LensModel &lens)
+{
+    if (!lens.active())
+        throw std::invalid_argument("writeLensCalibration: no lens");
+    cv::FileStorage fs(path, cv::FileStorage::WRITE);
+    if (!fs.isOpened())
+        throw std::runtime_error("cannot write " + path);
+    const cv::Mat camera = (cv::Mat_<double>(3, 3) << lens.fx, 0.0, lens.cx, 0.0, lens.fy, lens.cy, 0.0, 0.0, 1.0);
+    const bool fisheye = lens.kind == LensKind::Fisheye;
+    cv::Mat coeffs(1, fisheye ? 4 : 5, CV_64F);
+    for (int k = 0; k < coeffs.cols; ++k)
+        coeffs.at<double>(0, k) = lens.coeffs[std::size_t(k)];
+    fs << "image_width" << lens.width << "image_height" << lens.height;
+    fs << "distortion_model" << (fisheye ? "fisheye" : "plumb_bob");
+    fs << "camera_matrix" << camera << "distortion_coefficients" << coeffs;
 }
 
 } // namespace uavstab::synthetic

@@ -1,17 +1,23 @@
 // The synthetic flight generator: the default (Lissajous) profile is unchanged, and the
 // manoeuvre profile hovers where it should, reaches its speeds with piecewise constant
 // acceleration, and stays on the canvas with the default jitter. Rolling shutter and
-// vibration: off, nothing changes; on, each row has its pose and the frames wobble.
+// vibration: off, nothing changes; on, each row has its pose and the frames wobble. A lens: none,
+// nothing changes; a fisheye or wide-angle lens, the motion is a similarity in undistorted
+// coordinates only and the canvas covers the undistorted view.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "shaky_flight.hpp"
+#include "truth_csv.hpp"
 #include "wobble_metric.hpp"
 
 using namespace uavstab;
@@ -339,4 +345,354 @@ TEST(ShakyFlight, RollingShutterWobbles)
     // One frame pair, measured directly, agrees.
     const ShakyFlight f(vibrating(0.8));
     EXPECT_GT(wobble(luma(f.renderBgr(3)), luma(f.renderBgr(4))), 0.5);
+}
+
+namespace {
+
+FlightOptions throughLens(const LensModel &lens, std::uint32_t seed = 1)
+{
+    FlightOptions o;
+    o.seed = seed;
+    o.lens = lens;
+    return o;
+}
+
+Point2 centredOf(const ShakyFlight &f, Point2 pinhole)
+{
+    return {pinhole.x - (f.options().width - 1) * 0.5, pinhole.y - (f.options().height - 1) * 0.5};
+}
+
+Point2 pinholeOf(const ShakyFlight &f, Point2 centred)
+{
+    return {centred.x + (f.options().width - 1) * 0.5, centred.y + (f.options().height - 1) * 0.5};
+}
+
+// Where world point `world` appears in frame i (global shutter): through the pose, then the lens.
+Point2 imageOf(const ShakyFlight &f, int i, Point2 world)
+{
+    return f.options().lens.distort(pinholeOf(f, f.truePose(i).inverse().apply(world)));
+}
+
+Point2 worldOf(const ShakyFlight &f, int i, Point2 image)
+{
+    return f.truePose(i).apply(centredOf(f, f.options().lens.undistort(image)));
+}
+
+// The least-squares similarity a -> b (x' = s x - t y + tx, y' = t x + s y + ty) applied to a.
+std::vector<Point2> fitSimilarity(const std::vector<Point2> &a, const std::vector<Point2> &b)
+{
+    const double n = double(a.size());
+    Point2 ma{0, 0}, mb{0, 0};
+    for (std::size_t k = 0; k < a.size(); ++k) {
+        ma = {ma.x + a[k].x / n, ma.y + a[k].y / n};
+        mb = {mb.x + b[k].x / n, mb.y + b[k].y / n};
+    }
+    double sxx = 0, sc = 0, ss = 0;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+        const double ax = a[k].x - ma.x, ay = a[k].y - ma.y, bx = b[k].x - mb.x, by = b[k].y - mb.y;
+        sxx += ax * ax + ay * ay;
+        sc += ax * bx + ay * by;
+        ss += ax * by - ay * bx;
+    }
+    const double s = sc / sxx, t = ss / sxx;
+    std::vector<Point2> fitted;
+    for (const Point2 p : a) {
+        const double ax = p.x - ma.x, ay = p.y - ma.y;
+        fitted.push_back({s * ax - t * ay + mb.x, t * ax + s * ay + mb.y});
+    }
+    return fitted;
+}
+
+// The largest residual of that fit, px.
+double similarityFitResidual(const std::vector<Point2> &a, const std::vector<Point2> &b)
+{
+    const std::vector<Point2> fitted = fitSimilarity(a, b);
+    double worst = 0;
+    for (std::size_t k = 0; k < a.size(); ++k)
+        worst = std::max(worst, std::hypot(fitted[k].x - b[k].x, fitted[k].y - b[k].y));
+    return worst;
+}
+
+std::vector<Point2> pixelGrid(int width, int height, int steps)
+{
+    std::vector<Point2> grid;
+    for (int gy = 0; gy <= steps; ++gy)
+        for (int gx = 0; gx <= steps; ++gx)
+            grid.push_back({double(gx * (width - 1) / steps), double(gy * (height - 1) / steps)});
+    return grid;
+}
+
+// The canvas sampled at one position as the renderer samples it (bicubic, float map).
+cv::Vec3b sampleCanvas(const cv::Mat &canvas, Point2 p)
+{
+    cv::Mat mx(1, 1, CV_32F, cv::Scalar(float(p.x))), my(1, 1, CV_32F, cv::Scalar(float(p.y))), out;
+    cv::remap(canvas, out, mx, my, cv::INTER_CUBIC, cv::BORDER_REFLECT_101);
+    return out.at<cv::Vec3b>(0, 0);
+}
+
+// Bilinear luma at a sub-pixel position.
+double lumaAt(const cv::Mat &grey, Point2 p)
+{
+    cv::Mat patch;
+    cv::getRectSubPix(grey, cv::Size(1, 1), cv::Point2f(float(p.x), float(p.y)), patch, CV_32F);
+    return patch.at<float>(0, 0);
+}
+
+} // namespace
+
+TEST(ShakyFlightLens, ReadyMadeLensesHaveTheirFieldOfView)
+{
+    for (const cv::Size s : {cv::Size(640, 360), cv::Size(1280, 720), cv::Size(640, 480)}) {
+        const LensModel fisheye = fisheyeLens(s.width, s.height), wide = wideAngleLens(s.width, s.height);
+        EXPECT_NO_THROW(fisheye.validate());
+        EXPECT_NO_THROW(wide.validate());
+        EXPECT_EQ(fisheye.kind, LensKind::Fisheye);
+        EXPECT_EQ(wide.kind, LensKind::Standard);
+        // The angle off the axis of a corner's outer edge: half the diagonal field of view.
+        for (const auto &[lens, half_fov] : {std::pair{fisheye, 75.0}, std::pair{wide, 55.0}}) {
+            const Point2 corner = lens.undistort({-0.5, -0.5});
+            const double r = std::hypot(corner.x - lens.cx, corner.y - lens.cy) / lens.fx;
+            EXPECT_NEAR(std::atan(r) * 180 / kPi, half_fov, 1e-6) << s.width << "x" << s.height;
+        }
+    }
+    // Another size of the same aspect ratio is the same lens scaled.
+    const LensModel a = fisheyeLens(1280, 720), b = fisheyeLens(640, 360).scaledTo(1280, 720);
+    EXPECT_NEAR(a.fx, b.fx, 1e-9);
+    EXPECT_NEAR(a.cx, b.cx, 1e-9);
+}
+
+// No lens (the default): the frames are byte for byte the pinhole renders, whatever the
+// unused lens fields hold, with and without a rolling shutter.
+TEST(ShakyFlightLens, NoLensRendersThePinholeView)
+{
+    EXPECT_EQ(FlightOptions{}.lens.kind, LensKind::None);
+    for (double readout : {0.0, 0.8}) {
+        FlightOptions plain = vibrating(readout);
+        plain.frames = 20;
+        plain.moving_objects = 1;
+        FlightOptions unused = plain;
+        unused.lens = fisheyeLens(320, 240);
+        unused.lens.kind = LensKind::None;
+        const ShakyFlight a(plain), b(unused);
+        EXPECT_EQ(a.worldToCanvas().scale, b.worldToCanvas().scale);
+        EXPECT_EQ(b.undistortedFootprint().width, plain.width);
+        EXPECT_EQ(b.undistortedFootprint().height, plain.height);
+        for (int i : {0, 7, 19}) {
+            const cv::Mat x = a.renderBgr(i), y = b.renderBgr(i);
+            ASSERT_EQ(x.size(), y.size());
+            EXPECT_EQ(cv::norm(x, y, cv::NORM_INF), 0.0) << "readout " << readout << " frame " << i;
+        }
+    }
+}
+
+// Every rendered pixel is the canvas where the pose puts its undistorted position; with a
+// rolling shutter the pose of its own (distorted, sensor) row.
+TEST(ShakyFlightLens, PixelsShowTheWorldAtTheirUndistortedPosition)
+{
+    const cv::Mat canvas = cv::imread(defaultCanvasPath(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(canvas.empty());
+    for (double readout : {0.0, 0.8}) {
+        FlightOptions o = vibrating(readout);
+        o.frames = 40;
+        o.lens = fisheyeLens(o.width, o.height);
+        const ShakyFlight f(o);
+        const Point2 centre{(canvas.cols - 1) * 0.5, (canvas.rows - 1) * 0.5};
+        int differing = 0, checked = 0;
+        for (int i : {3, 31}) {
+            const cv::Mat frame = f.renderBgr(i);
+            for (const Point2 q : pixelGrid(o.width, o.height, 24)) {
+                const Point2 world = f.truePoseAtRow(i, q.y).apply(centredOf(f, f.options().lens.undistort(q)));
+                const Point2 expected = f.worldToCanvas().apply(world);
+                const Point2 at = f.canvasPosition(i, q);
+                ASSERT_NEAR(at.x, expected.x + centre.x, 1e-6);
+                ASSERT_NEAR(at.y, expected.y + centre.y, 1e-6);
+                const cv::Vec3b want = sampleCanvas(canvas, at);
+                const cv::Vec3b got = frame.at<cv::Vec3b>(int(q.y), int(q.x));
+                // The renderer's float map may round a coordinate the other way: 1 level.
+                for (int ch = 0; ch < 3; ++ch)
+                    differing += std::abs(int(want[ch]) - int(got[ch])) > 1;
+                ++checked;
+            }
+        }
+        EXPECT_EQ(differing, 0) << "readout " << readout << ", of " << checked << " pixels";
+    }
+}
+
+// Through the fisheye (and the wide-angle lens): a world point seen at pixel q of frame j is
+// where pose and lens put it in frame i, and the motion between frames is a similarity in
+// undistorted coordinates but not in image pixels.
+TEST(ShakyFlightLens, FisheyeMotionIsASimilarityOnlyWhenUndistorted)
+{
+    for (const bool fisheye : {true, false}) {
+        const ShakyFlight f(throughLens(fisheye ? fisheyeLens(640, 360) : wideAngleLens(640, 360)));
+        const LensModel &lens = f.options().lens;
+        const std::vector<Point2> grid = pixelGrid(640, 360, 16);
+        double worst_undistorted = 0, worst_distorted_1 = 0, worst_distorted_10 = 0;
+        for (int i : {20, 100, 200}) {
+            for (int gap : {1, 10}) {
+                const int j = i + gap;
+                // Frame j -> frame i: trueMotion's convention, composed over the gap.
+                const Similarity motion = f.truePose(i).inverse() * f.truePose(j);
+                std::vector<Point2> from, to, from_u, to_u;
+                for (const Point2 q : grid) {
+                    const Point2 u = centredOf(f, lens.undistort(q));
+                    const Point2 v = motion.apply(u);
+                    from.push_back(q);
+                    to.push_back(lens.distort(pinholeOf(f, v)));
+                    from_u.push_back(u);
+                    to_u.push_back(v);
+                    // The same point reached through the world.
+                    const Point2 through_world = imageOf(f, i, worldOf(f, j, q));
+                    EXPECT_NEAR(through_world.x, to.back().x, 1e-6);
+                    EXPECT_NEAR(through_world.y, to.back().y, 1e-6);
+                }
+                if (gap == 1) {
+                    const Similarity m = f.trueMotion(j);
+                    EXPECT_NEAR(m.dx, motion.dx, 1e-9);
+                    EXPECT_NEAR(m.dy, motion.dy, 1e-9);
+                    EXPECT_NEAR(m.angle, motion.angle, 1e-12);
+                }
+                worst_undistorted = std::max(worst_undistorted, similarityFitResidual(from_u, to_u));
+                double &worst_distorted = gap == 1 ? worst_distorted_1 : worst_distorted_10;
+                worst_distorted = std::max(worst_distorted, similarityFitResidual(from, to));
+            }
+        }
+        std::printf("%s 640x360: similarity fit residual, largest over a 17x17 grid: undistorted %.2g px; "
+                    "image pixels %.2f px (consecutive frames), %.2f px (10 frames apart)\n",
+                    fisheye ? "fisheye" : "wide-angle", worst_undistorted, worst_distorted_1, worst_distorted_10);
+        EXPECT_LT(worst_undistorted, 1e-9);
+        if (fisheye) {
+            EXPECT_GT(worst_distorted_1, 1.5);
+            EXPECT_GT(worst_distorted_10, 6.0);
+        }
+    }
+}
+
+// The picture agrees: a textured pixel of frame i reappears where pose and lens predict it ten
+// frames later, and not where a similarity fitted in image pixels would put it.
+TEST(ShakyFlightLens, FisheyePictureMovesAsPredicted)
+{
+    const ShakyFlight f(throughLens(fisheyeLens(640, 360)));
+    const std::vector<Point2> grid = pixelGrid(640, 360, 40);
+    double lens_error = 0, similarity_error = 0;
+    int points = 0;
+    for (int i : {30, 150}) {
+        const int gap = 10, j = i + gap;
+        const cv::Mat a = luma(f.renderBgr(i)), b = luma(f.renderBgr(j));
+        // Points of frame i, predicted in frame j through the world, and the similarity that
+        // best maps the one onto the other in image pixels.
+        std::vector<Point2> from, to;
+        for (const Point2 q : grid) {
+            from.push_back(q);
+            to.push_back(imageOf(f, j, worldOf(f, i, q)));
+        }
+        const std::vector<Point2> fitted = fitSimilarity(from, to);
+        for (std::size_t k = 0; k < from.size(); ++k) {
+            const Point2 fit = fitted[k];
+            // Only points that stay inside frame j, away from the edge.
+            auto inside = [](Point2 p) { return p.x >= 2 && p.y >= 2 && p.x <= 637 && p.y <= 357; };
+            if (!inside(to[k]) || !inside(fit))
+                continue;
+            const double seen = a.at<std::uint8_t>(int(from[k].y), int(from[k].x));
+            lens_error += std::abs(lumaAt(b, to[k]) - seen);
+            similarity_error += std::abs(lumaAt(b, fit) - seen);
+            ++points;
+        }
+    }
+    lens_error /= points;
+    similarity_error /= points;
+    std::printf("fisheye picture, frames 10 apart, %d points: mean |luma difference| at the predicted position %.2f, "
+                "at the similarity fit's %.2f\n",
+                points, lens_error, similarity_error);
+    EXPECT_GT(points, 1000);
+    EXPECT_LT(lens_error, 3.0);
+    EXPECT_GT(similarity_error, 2 * lens_error);
+}
+
+// The canvas covers the whole undistorted view: no pixel of any frame is sampled outside the
+// photograph (bicubic: one pixel in from the edge on either side), for the fisheye and the
+// wide-angle lens, both profiles, with a rolling shutter too. With one pose per frame the
+// frame's outline bounds what it samples (pose and lens map the frame one to one).
+TEST(ShakyFlightLens, LensFlightsStayOnTheCanvas)
+{
+    struct Case {
+        const char *name;
+        FlightOptions options;
+    };
+    std::vector<Case> cases;
+    for (std::uint32_t seed : {1u, 2u, 3u}) {
+        cases.push_back({"fisheye", throughLens(fisheyeLens(640, 360), seed)});
+        cases.push_back({"wide", throughLens(wideAngleLens(640, 360), seed)});
+    }
+    FlightOptions m = throughLens(fisheyeLens(640, 360));
+    m.profile = FlightProfile::Manoeuvre;
+    cases.push_back({"fisheye manoeuvre", m});
+    FlightOptions rs = vibrating(0.8);
+    rs.lens = fisheyeLens(640, 360);
+    cases.push_back({"fisheye rolling shutter", rs});
+    FlightOptions hd = throughLens(fisheyeLens(640, 360));  // scaled to the frame
+    hd.width = 1280;
+    hd.height = 720;
+    cases.push_back({"fisheye 1280x720", hd});
+
+    for (const Case &c : cases) {
+        const ShakyFlight f(c.options);
+        const int w = c.options.width, h = c.options.height;
+        std::vector<Point2> outline;
+        for (int x = 0; x < w; ++x) {
+            outline.push_back({double(x), 0.0});
+            outline.push_back({double(x), double(h - 1)});
+        }
+        for (int y = 0; y < h; ++y) {
+            outline.push_back({0.0, double(y)});
+            outline.push_back({double(w - 1), double(y)});
+        }
+        const double cols = f.canvasSize().width, rows = f.canvasSize().height;
+        auto inside = [&](Point2 p) { return std::min({p.x - 1, p.y - 1, cols - 3 - p.x, rows - 3 - p.y}); };
+        double closest = 1e9;  // canvas px between a sampled position and the canvas edge
+        int closest_frame = 0;
+        for (int i = 0; i < f.frameCount(); ++i)
+            for (const Point2 q : outline)
+                if (const double d = inside(f.canvasPosition(i, q)); d < closest) {
+                    closest = d;
+                    closest_frame = i;
+                }
+        EXPECT_GE(closest, 0.0) << c.name << " seed " << c.options.seed;
+        // In the frame that comes closest, every pixel (with a rolling shutter the rows' poses
+        // differ, so the outline alone is not a proof).
+        double closest_pixel = 1e9;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x)
+                closest_pixel =
+                    std::min(closest_pixel, inside(f.canvasPosition(closest_frame, {double(x), double(y)})));
+        EXPECT_GE(closest_pixel, closest - 1e-9) << c.name << " frame " << closest_frame;
+        std::printf("%s %dx%d seed %u: view %.0fx%.0f pinhole px, %.3f canvas px per pinhole px, closest sample "
+                    "%.1f canvas px inside\n",
+                    c.name, w, h, c.options.seed, f.undistortedFootprint().width, f.undistortedFootprint().height,
+                    f.worldToCanvas().scale, closest);
+    }
+}
+
+// uavstab-render-flight --lens-out: the calibration beside the clip reads back as the lens.
+TEST(ShakyFlightLens, CalibrationFileReadsBack)
+{
+    for (const LensModel &lens : {fisheyeLens(640, 360), wideAngleLens(1280, 720)}) {
+        for (const char *extension : {".yml", ".json"}) {
+            const std::string path = ::testing::TempDir() + "shaky_flight_lens" + extension;
+            writeLensCalibration(path, lens);
+            const LensProfile read = readLensProfile(path);
+            std::remove(path.c_str());
+            EXPECT_EQ(read.lens.kind, lens.kind) << extension;
+            EXPECT_EQ(read.lens.width, lens.width);
+            EXPECT_EQ(read.lens.height, lens.height);
+            EXPECT_DOUBLE_EQ(read.lens.fx, lens.fx);
+            EXPECT_DOUBLE_EQ(read.lens.fy, lens.fy);
+            EXPECT_DOUBLE_EQ(read.lens.cx, lens.cx);
+            EXPECT_DOUBLE_EQ(read.lens.cy, lens.cy);
+            for (std::size_t k = 0; k < 5; ++k)
+                EXPECT_DOUBLE_EQ(read.lens.coeffs[k], lens.coeffs[k]) << "coefficient " << k;
+        }
+    }
+    EXPECT_THROW(writeLensCalibration(::testing::TempDir() + "none.yml", LensModel{}), std::invalid_argument);
+    EXPECT_THROW(fisheyeLens(640, 360, 180.0), std::invalid_argument);
 }
