@@ -6,11 +6,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <string>
+#include <vector>
 
 #include <opencv2/core/hal/intrin.hpp>
 
 #include "cpu_features.hpp"
+#include "render/warp_mesh.hpp"
 
 #ifdef UAVSTAB_HAVE_X86
 #include <immintrin.h>
@@ -166,12 +169,160 @@ private:
     double steps_m0_, steps_m3_;  // the matrix entries steps_ was computed for
 };
 
+// ...or a matrix per chunk (the mesh warp): along one output row, inside one mesh cell, the
+// mesh's bilinear interpolation is linear in x, so each chunk is warped by the matrix
+// m0 = (B.x - A.x) / cell, m3 = (B.y - A.y) / cell, m1 = m4 = 0, m2 = A.x - m0 * x_A,
+// m5 = A.y - m3 * x_A, with A, B the cell's nodes interpolated down to the row and x_A the
+// cell's first column. Kernels call beginRow, then chunk() for each chunk in order.
+//
+// The lane offsets change with nearly every chunk here, so they come from integers rather
+// than setOffsets' 32 double products: m0 and m3 rounded to 2^-26 px (fixedStep), then
+// j * step rounded to 1/1024 px half away from zero (chunkOffset). That is setOffsets'
+// rounding of j * m * 1024 exactly whenever m is a multiple of 2^-16; else an offset may
+// differ from it by 1/1024 px where j * m * 1024 lies within 2^-12 of a half. Recomputed only
+// when the rounded steps change.
+constexpr int kStepBits = 26;  // 1024 * 2^16
+
+inline int fixedStep(double m)
+{
+    const double v = m * double(1 << kStepBits);
+    const int i = int(v);  // |m| <= 1.25: in range
+    const double f = v - double(i);
+    return i + (f >= 0.5) - (f <= -0.5);
+}
+
+inline int chunkOffset(int step, int j)
+{
+    const int r = (j * std::abs(step) + (1 << 15)) >> 16;
+    return step < 0 ? -r : r;
+}
+
+// The pixel of the chunk that lane l of vector v holds (C channels).
+constexpr int lanePixel(int channels, int v, int l)
+{
+    return v * (16 / channels) + l / channels;
+}
+
+class MatrixPerChunk {
+public:
+    MatrixPerChunk(const WarpMesh &mesh, int channels, bool window_fits, int chunks_in_row)
+        : mesh_(mesh), row_x_(std::size_t(mesh.columns)), row_y_(std::size_t(mesh.columns)),
+          steps_(laneSteps(kIdentity, channels)), channels_(channels), window_fits_(window_fits)
+    {
+        // Room for 3 entries past the last chunk: the AVX2 planner reads groups of 4.
+        const std::size_t n = std::size_t(chunks_in_row) + 4;
+        for (std::vector<double> *v : {&m0_, &m2_, &m3_, &m5_})
+            v->assign(n, 0.0);
+        for (std::vector<int> *v : {&step_x_, &step_y_, &last_window_, &last_offset_y_, &vector_ok_})
+            v->assign(n, 0);
+    }
+    const WarpMesh &mesh() const { return mesh_; }
+
+    // Every chunk's matrix of output row y (chunk c at columns [16 c, 16 c + 16)), and for
+    // those the window trick takes (warpPlaneBilinearHandles' bounds, which also keep the
+    // offsets in 16 bits) its steps.
+    void beginRow(int y, int chunks_in_row)
+    {
+        mesh_.rowAt(y, row_x_.data(), row_y_.data());
+        const int per_cell = mesh_.cell / kChunk;
+        for (int c = 0, cell = 0, in_cell = 0; c < chunks_in_row; ++c) {
+            const double x_a = double(cell) * mesh_.cell;
+            const double ax = row_x_[std::size_t(cell)], bx = row_x_[std::size_t(cell) + 1];
+            const double ay = row_y_[std::size_t(cell)], by = row_y_[std::size_t(cell) + 1];
+            const double m0 = (bx - ax) / mesh_.cell, m3 = (by - ay) / mesh_.cell;
+            m0_[std::size_t(c)] = m0;
+            m2_[std::size_t(c)] = ax - m0 * x_a;
+            m3_[std::size_t(c)] = m3;
+            m5_[std::size_t(c)] = ay - m3 * x_a;
+            const bool ok = window_fits_ && m0 > 0.0 && m0 <= 1.25 && std::abs(m3) * (kChunk - 1) <= 0.9;
+            vector_ok_[std::size_t(c)] = ok;
+            const int step_x = ok ? fixedStep(m0) : 0, step_y = ok ? fixedStep(m3) : 0;
+            step_x_[std::size_t(c)] = step_x;
+            step_y_[std::size_t(c)] = step_y;
+            last_window_[std::size_t(c)] = chunkOffset(step_x, lanePixel(channels_, channels_ - 1, 8));
+            last_offset_y_[std::size_t(c)] = chunkOffset(step_y, lanePixel(channels_, channels_ - 1, 15));
+            if (++in_cell == per_cell) {
+                in_cell = 0;
+                ++cell;
+            }
+        }
+    }
+    // Chunk c's matrix.
+    void matrix(int c, double m[6]) const
+    {
+        m[0] = m0_[std::size_t(c)];
+        m[1] = 0.0;
+        m[2] = m2_[std::size_t(c)];
+        m[3] = m3_[std::size_t(c)];
+        m[4] = 0.0;
+        m[5] = m5_[std::size_t(c)];
+    }
+    // Whether a vector kernel may take chunk c (else: per pixel with its matrix).
+    bool vectorOk(int c) const { return vector_ok_[std::size_t(c)] != 0; }
+    // Chunk c's steps (fixedStep of m0, m3) and what planChunk reads of its lanes: the last
+    // window's offset and the last pixel's vertical offset.
+    int stepX(int c) const { return step_x_[std::size_t(c)]; }
+    int stepY(int c) const { return step_y_[std::size_t(c)]; }
+    int lastWindow(int c) const { return last_window_[std::size_t(c)]; }
+    int lastOffsetY(int c) const { return last_offset_y_[std::size_t(c)]; }
+    // Chunk c's lanes, for kernels that read them from memory: recomputed only when its
+    // steps differ from the last chunk asked for.
+    const LaneSteps &steps(int c)
+    {
+        const int step_x = stepX(c), step_y = stepY(c);
+        if (!(lanes_valid_ && step_x == lanes_x_ && step_y == lanes_y_)) {
+            for (int v = 0; v < channels_; ++v)
+                for (int l = 0; l < 16; ++l) {
+                    steps_.offset_x[v][l] = std::int16_t(chunkOffset(step_x, lanePixel(channels_, v, l)));
+                    steps_.offset_y[v][l] = std::int16_t(chunkOffset(step_y, lanePixel(channels_, v, l)));
+                }
+            lanes_x_ = step_x;
+            lanes_y_ = step_y;
+            lanes_valid_ = true;
+        }
+        return steps_;
+    }
+    // The lane layout (channel, half), the same for every chunk.
+    const LaneSteps &layout() const { return steps_; }
+    // The row's arrays, for the AVX2 planner.
+    const double *m0() const { return m0_.data(); }
+    const double *m2() const { return m2_.data(); }
+    const double *m3() const { return m3_.data(); }
+    const double *m5() const { return m5_.data(); }
+    const int *lastWindows() const { return last_window_.data(); }
+    const int *lastOffsetsY() const { return last_offset_y_.data(); }
+    const int *vectorOks() const { return vector_ok_.data(); }
+
+private:
+    static constexpr double kIdentity[6] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0};
+    const WarpMesh &mesh_;
+    std::vector<double> row_x_, row_y_;  // the row's node positions
+    LaneSteps steps_;
+    int channels_;
+    bool window_fits_;
+    // Per chunk of the row.
+    std::vector<double> m0_, m2_, m3_, m5_;
+    std::vector<int> step_x_, step_y_, last_window_, last_offset_y_, vector_ok_;
+    bool lanes_valid_ = false;
+    int lanes_x_ = 0, lanes_y_ = 0;  // the steps steps_ holds
+};
+
 inline void samplePixels(const PlaneSpan &src, int channels, const double m[6], bool replicate,
                          const std::uint8_t *border, std::uint8_t *out, int x, int y, int count)
 {
     for (int j = 0; j < count; ++j)
         samplePixel(src, channels, m[0] * (x + j) + m[1] * y + m[2], m[3] * (x + j) + m[4] * y + m[5], replicate,
                     border, out + (x + j) * channels);
+}
+
+// Output pixels [x, dst_width) of row y at the mesh's own positions.
+inline void samplePixelsAtMesh(const PlaneSpan &src, int channels, const WarpMesh &mesh, bool replicate,
+                               const std::uint8_t *border, std::uint8_t *out, int x, int y, int dst_width)
+{
+    for (; x < dst_width; ++x) {
+        const Point2 s = mesh.at(x, y);
+        samplePixel(src, channels, s.x, s.y, replicate, border, out + x * channels);
+    }
 }
 
 // The plan of up to kPlanChunks chunks of a row, for the vector kernels (planChunksAvx2,
@@ -483,12 +634,13 @@ struct ChunkPlan {
     int ky_min, ky_max;  // source rows crossed in the chunk, relative to iy0
 };
 
-inline bool planChunk(const PlaneSpan &src, int channels, const double m[6], const LaneSteps &steps, int x, int y,
-                      ChunkPlan &p)
+// last_window: the lane offset where the chunk's last window starts; last_offset_y: the
+// last pixel's vertical offset (both 1/1024 px).
+inline bool planChunk(const PlaneSpan &src, int channels, const double m[6], int last_window, int last_offset_y,
+                      int x, int y, ChunkPlan &p)
 {
     const double last_x = m[0] * (kChunk - 1), last_y = m[3] * (kChunk - 1);
     const int row_bytes = src.width * channels;
-    const int last_window = steps.offset_x[steps.vectors - 1][steps.half_pixels * channels];
     const double sx0 = m[0] * x + m[1] * y + m[2];
     const double sy0 = m[3] * x + m[4] * y + m[5];
     const double sx1 = sx0 + last_x, sy1 = sy0 + last_y;
@@ -499,11 +651,18 @@ inline bool planChunk(const PlaneSpan &src, int channels, const double m[6], con
     p.iy0 = int(std::floor(sy0));
     p.frx = int((sx0 - p.ix0) * 1024.0);
     p.fry = int((sy0 - p.iy0) * 1024.0);
-    const int ky_last = (p.fry + steps.offset_y[steps.vectors - 1][15]) >> 10;
+    const int ky_last = (p.fry + last_offset_y) >> 10;
     p.ky_min = std::min(0, ky_last);
     p.ky_max = std::max(0, ky_last);
     return !((p.ix0 + ((p.frx + last_window) >> 10)) * channels + 16 > row_bytes || p.ky_max - p.ky_min > 1 ||
              p.iy0 + p.ky_max + 1 >= src.height || p.iy0 + p.ky_min < 0);
+}
+
+inline bool planChunk(const PlaneSpan &src, int channels, const double m[6], const LaneSteps &steps, int x, int y,
+                      ChunkPlan &p)
+{
+    return planChunk(src, channels, m, steps.offset_x[steps.vectors - 1][steps.half_pixels * channels],
+                     steps.offset_y[steps.vectors - 1][15], x, y, p);
 }
 
 // planChunk for chunks [x_begin / 16, + chunks) of row y, without branches (so that the
@@ -548,6 +707,26 @@ inline void planChunksPortable(const PlaneSpan &src, int channels, const double 
 }
 
 
+// One planned chunk's bytes (out: its first pixel), as the vector kernels compute them.
+inline void chunkScalar(const PlaneSpan &src, int channels, const LaneSteps &steps, const ChunkPlan &p,
+                        std::uint8_t *out)
+{
+    const std::size_t stride = std::size_t(src.stride);
+    for (int v = 0; v < steps.vectors; ++v)
+        for (int l = 0; l < 16; ++l) {
+            const int rel_x = p.frx + steps.offset_x[v][l], rel_y = p.fry + steps.offset_y[v][l];
+            const int kx = rel_x >> 10, ky = rel_y >> 10;
+            const int fx = (rel_x >> (10 - kFracBits)) & (kOne - 1);
+            const int fy = (rel_y >> (10 - kFracBits)) & (kOne - 1);
+            const std::uint8_t *tap =
+                src.data + std::size_t(p.iy0 + ky) * stride + (p.ix0 + kx) * channels + steps.channel[l];
+            const int t = tap[0] * (kOne - fx) + tap[channels] * fx;
+            const int b = tap[stride] * (kOne - fx) + tap[stride + channels] * fx;
+            const int value = t + (((b - t) * (fy << 9) + (1 << 14)) >> 15);
+            out[v * 16 + l] = std::uint8_t(std::clamp((value + kOne / 2) >> kFracBits, 0, 255));
+        }
+}
+
 // The reference: what every vector kernel computes, one byte at a time. Lane (v, l) is
 // pixel v * 16 / C + l / C, channel l % C: taps at the integer part of its position, weights
 // the top 6 bits of the 1/1024 fraction, horizontal blend x64, vertical blend rounded as
@@ -556,7 +735,6 @@ template <class Matrices>
 void warpRowsScalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                     int row_end, int channels, Matrices &matrices, bool replicate, const std::uint8_t border[4])
 {
-    const std::size_t stride = std::size_t(src.stride);
     for (int y = row_begin; y < row_end; ++y) {
         const double *m = matrices.row(y);
         const LaneSteps &steps = matrices.steps();
@@ -568,23 +746,187 @@ void warpRowsScalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int
                 samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
                 continue;
             }
-            for (int v = 0; v < steps.vectors; ++v)
-                for (int l = 0; l < 16; ++l) {
-                    const int rel_x = p.frx + steps.offset_x[v][l], rel_y = p.fry + steps.offset_y[v][l];
-                    const int kx = rel_x >> 10, ky = rel_y >> 10;
-                    const int fx = (rel_x >> (10 - kFracBits)) & (kOne - 1);
-                    const int fy = (rel_y >> (10 - kFracBits)) & (kOne - 1);
-                    const std::uint8_t *tap =
-                        src.data + std::size_t(p.iy0 + ky) * stride + (p.ix0 + kx) * channels + steps.channel[l];
-                    const int t = tap[0] * (kOne - fx) + tap[channels] * fx;
-                    const int b = tap[stride] * (kOne - fx) + tap[stride + channels] * fx;
-                    const int value = t + (((b - t) * (fy << 9) + (1 << 14)) >> 15);
-                    out[x * channels + v * 16 + l] = std::uint8_t(std::clamp((value + kOne / 2) >> kFracBits, 0, 255));
-                }
+            chunkScalar(src, channels, steps, p, out + x * channels);
         }
         samplePixels(src, channels, m, replicate, border, out, x, y, dst_width - x);
     }
 }
+
+// warpRowsScalar with a matrix per chunk; the columns past the last chunk at the mesh's
+// positions.
+void warpMeshRowsScalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                        int row_end, int channels, MatrixPerChunk &chunks, bool replicate,
+                        const std::uint8_t border[4])
+{
+    const int chunks_in_row = dst_width / kChunk;
+    for (int y = row_begin; y < row_end; ++y) {
+        chunks.beginRow(y, chunks_in_row);
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        for (int c = 0; c < chunks_in_row; ++c) {
+            const int x = c * kChunk;
+            double m[6];
+            chunks.matrix(c, m);
+            ChunkPlan p;
+            if (!chunks.vectorOk(c) || !planChunk(src, channels, m, chunks.lastWindow(c), chunks.lastOffsetY(c), x, y, p)) {
+                samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
+                continue;
+            }
+            chunkScalar(src, channels, chunks.steps(c), p, out + x * channels);
+        }
+        samplePixelsAtMesh(src, channels, chunks.mesh(), replicate, border, out, chunks_in_row * kChunk, y, dst_width);
+    }
+}
+
+#ifdef UAVSTAB_HAVE_X86
+
+// planChunk for chunks [0, chunks) of a mesh row, four at a time, each with its own matrix
+// (m1 = m4 = 0) and lane offsets: the operations of planChunksAvx2<false>, lane by lane the
+// same as planChunk's, so the same decisions. A chunk the window trick does not take
+// (vector_ok 0) is refused whatever its plan.
+__attribute__((target("avx2"))) inline void planMeshChunksAvx2(const PlaneSpan &src, int channels,
+                                                               const MatrixPerChunk &chunks, RowPlan &plan, int first,
+                                                               int count)
+{
+    const __m256d zero = _mm256_setzero_pd(), last = _mm256_set1_pd(double(kChunk - 1));
+    const __m256d width1 = _mm256_set1_pd(double(src.width - 1)), height1 = _mm256_set1_pd(double(src.height - 1));
+    const __m256d k1024 = _mm256_set1_pd(1024.0);
+    const __m128i fraction = _mm_set1_epi32(1023);
+    const __m128i row_bytes = _mm_set1_epi32(src.width * channels - 16);
+    const __m128i height = _mm_set1_epi32(src.height), one = _mm_set1_epi32(1), zero_i = _mm_setzero_si128();
+    for (int c = 0; c < count; c += 4) {
+        const int k = first + c;
+        const __m256d m0 = _mm256_loadu_pd(chunks.m0() + k), m3 = _mm256_loadu_pd(chunks.m3() + k);
+        const __m256d m2 = _mm256_loadu_pd(chunks.m2() + k), m5 = _mm256_loadu_pd(chunks.m5() + k);
+        const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(k * kChunk), _mm_setr_epi32(0, 16, 32, 48)));
+        // planChunk: m0 x + m1 y + m2 with m1 y = 0 (adding it changes nothing).
+        const __m256d sx0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m0, xs), zero), m2);
+        const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), zero), m5);
+        const __m128i qx = _mm256_cvttpd_epi32(_mm256_mul_pd(sx0, k1024));
+        const __m128i qy = _mm256_cvttpd_epi32(_mm256_mul_pd(sy0, k1024));
+        const __m128i ix0 = _mm_srai_epi32(qx, 10), iy0 = _mm_srai_epi32(qy, 10);
+        const __m128i frx = _mm_and_si128(qx, fraction), fry = _mm_and_si128(qy, fraction);
+        const __m128i last_window = _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.lastWindows() + k));
+        const __m128i last_offset_y = _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.lastOffsetsY() + k));
+        const __m128i ky_last = _mm_srai_epi32(_mm_add_epi32(fry, last_offset_y), 10);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ix0 + c), ix0);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.iy0 + c), iy0);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.frx + c), frx);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.fry + c), fry);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ky_last + c), ky_last);
+        const __m256d sx1 = _mm256_add_pd(sx0, _mm256_mul_pd(m0, last)), sy1 = _mm256_add_pd(sy0, _mm256_mul_pd(m3, last));
+        const __m256d inside = _mm256_and_pd(
+            _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sx0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sx1, zero, _CMP_GE_OQ)),
+                          _mm256_and_pd(_mm256_cmp_pd(sx0, width1, _CMP_LT_OQ), _mm256_cmp_pd(sx1, width1, _CMP_LT_OQ))),
+            _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sy0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sy1, zero, _CMP_GE_OQ)),
+                          _mm256_and_pd(_mm256_cmp_pd(sy0, height1, _CMP_LT_OQ), _mm256_cmp_pd(sy1, height1, _CMP_LT_OQ))));
+        const __m128i ky_min = _mm_min_epi32(zero_i, ky_last), ky_max = _mm_max_epi32(zero_i, ky_last);
+        const __m128i window_end =
+            _mm_mullo_epi32(_mm_add_epi32(ix0, _mm_srai_epi32(_mm_add_epi32(frx, last_window), 10)),
+                            _mm_set1_epi32(channels));
+        const __m128i refused = _mm_or_si128(
+            _mm_or_si128(_mm_cmpgt_epi32(window_end, row_bytes), _mm_cmpgt_epi32(_mm_sub_epi32(ky_max, ky_min), one)),
+            _mm_or_si128(_mm_cmpgt_epi32(_mm_add_epi32(_mm_add_epi32(iy0, ky_max), one), _mm_sub_epi32(height, one)),
+                         _mm_cmpgt_epi32(zero_i, _mm_add_epi32(iy0, ky_min))));
+        const __m128i inside32 = _mm256_castsi256_si128(
+            _mm256_permutevar8x32_epi32(_mm256_castpd_si256(inside), _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0)));
+        const __m128i taken = _mm_cmpgt_epi32(
+            _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.vectorOks() + k)), zero_i);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.vector_ok + c),
+                         _mm_and_si128(taken, _mm_andnot_si128(refused, inside32)));
+    }
+}
+
+// warpRowsAvx2 with a matrix per chunk: the row's chunks planned with their own matrices
+// (planMeshChunksAvx2), their bytes from chunkVectorAvx2 with their own offsets.
+template <int C>
+__attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
+                                                      int dst_width, int row_begin, int row_end,
+                                                      MatrixPerChunk &chunks, bool replicate,
+                                                      const std::uint8_t border[4])
+{
+    constexpr int channels = C;
+    constexpr int H = 8 / C;
+    Avx2Lanes lanes;
+    lanes.channel = _mm256_load_si256(reinterpret_cast<const __m256i *>(chunks.layout().channel));
+    lanes.high_mask = _mm256_sub_epi16(
+        _mm256_setzero_si256(), _mm256_load_si256(reinterpret_cast<const __m256i *>(chunks.layout().is_high_half)));
+    lanes.frac_mask = _mm256_set1_epi16(kOne - 1);
+    lanes.one = _mm256_set1_epi16(kOne);
+    lanes.next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
+    const std::size_t stride = std::size_t(src.stride);
+    Avx2RowSteps row_steps[C] = {};
+    // The lanes' pixels j (32-bit, two vectors per 16 lanes), for the offsets j * step.
+    __m256i pixel_lo[C], pixel_hi[C];
+    for (int v = 0; v < C; ++v) {
+        alignas(32) std::int32_t j[16];
+        for (int l = 0; l < 16; ++l)
+            j[l] = lanePixel(C, v, l);
+        pixel_lo[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(j));
+        pixel_hi[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(j + 8));
+    }
+    const __m256i half = _mm256_set1_epi32(1 << 15);
+    // chunkOffset for 16 lanes: the pack interleaves 128-bit halves, the permute restores them.
+    const auto offsets = [&](int v, int step) __attribute__((target("avx2"))) {
+        const __m256i a = _mm256_set1_epi32(std::abs(step)), sign = _mm256_set1_epi32(step);
+        const __m256i lo = _mm256_sign_epi32(
+            _mm256_srli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(pixel_lo[v], a), half), 16), sign);
+        const __m256i hi = _mm256_sign_epi32(
+            _mm256_srli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(pixel_hi[v], a), half), 16), sign);
+        return _mm256_permute4x64_epi64(_mm256_packs_epi32(lo, hi), 0xD8);
+    };
+    const int chunks_in_row = dst_width / kChunk;
+    RowPlan plan;
+    for (int y = row_begin; y < row_end; ++y) {
+        chunks.beginRow(y, chunks_in_row);
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        bool have_steps = false;
+        int steps_x = 0, steps_y = 0;  // the steps row_steps holds
+        for (int first = 0; first < chunks_in_row; first += kPlanChunks) {
+            const int count = std::min(kPlanChunks, chunks_in_row - first);
+            planMeshChunksAvx2(src, channels, chunks, plan, first, count);
+            prefetchBelow(src, channels, plan, count);
+            for (int c = 0; c < count; ++c) {
+                const int k = first + c, x = k * kChunk;
+                if (!plan.vector_ok[c]) {
+                    double m[6];
+                    chunks.matrix(k, m);
+                    samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
+                    continue;
+                }
+                const int step_x = chunks.stepX(k), step_y = chunks.stepY(k);
+                if (!(have_steps && step_x == steps_x && step_y == steps_y)) {
+                    for (int v = 0; v < C; ++v) {
+                        row_steps[v].window_lo = chunkOffset(step_x, lanePixel(C, v, 0));
+                        row_steps[v].window_hi = chunkOffset(step_x, lanePixel(C, v, H * channels));
+                        row_steps[v].offset_x = offsets(v, step_x);
+                        row_steps[v].offset_y = offsets(v, step_y);
+                        row_steps[v].window =
+                            _mm256_blendv_epi8(_mm256_set1_epi16(std::int16_t(row_steps[v].window_lo)),
+                                               _mm256_set1_epi16(std::int16_t(row_steps[v].window_hi)),
+                                               lanes.high_mask);
+                    }
+                    have_steps = true;
+                    steps_x = step_x;
+                    steps_y = step_y;
+                }
+                __m256i vectors[C];
+                for (int v = 0; v < C; ++v)
+                    vectors[v] = chunkVectorAvx2<C>(src.data, stride, lanes, row_steps[v], plan.ix0[c], plan.iy0[c],
+                                                    plan.frx[c], plan.fry[c], plan.ky_last[c]);
+                const __m256i packed =
+                    _mm256_permute4x64_epi64(_mm256_packus_epi16(vectors[0], vectors[C - 1]), 0xD8);
+                if (C == 2)
+                    _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + x * channels), packed);
+                else
+                    _mm_storeu_si128(reinterpret_cast<__m128i *>(out + x * channels), _mm256_castsi256_si128(packed));
+            }
+        }
+        samplePixelsAtMesh(src, channels, chunks.mesh(), replicate, border, out, chunks_in_row * kChunk, y,
+                           dst_width);
+    }
+}
+
+#endif // UAVSTAB_HAVE_X86
 
 #ifdef UAVSTAB_HAVE_SIMD128
 
@@ -639,6 +981,52 @@ UAVSTAB_TARGET_SIMD128 inline v_int16x8 interpolateRows128(const std::uint8_t *t
     return t + mulRoundShift15(b - t, fy_scaled);
 }
 
+// One planned chunk's bytes (out: its first pixel): each 128-bit half reads one 16-byte
+// window per source row it crosses, as chunkVectorAvx2.
+template <int C>
+UAVSTAB_TARGET_SIMD128 inline void chunk128(const std::uint8_t *src_data, std::size_t stride, const LaneSteps &steps,
+                                            int ix0, int iy0, int frx, int fry, int ky_last, std::uint8_t *out)
+{
+    constexpr int channels = C;
+    const v_int16x8 frac_mask = cv::v_setall_s16(kOne - 1);
+    const v_int16x8 one = cv::v_setall_s16(kOne);
+    const v_int16x8 round = cv::v_setall_s16(kOne / 2);
+    const v_int16x8 next_tap = cv::v_setall_s16(std::int16_t(channels << 8));
+    const int ky_min = std::min(0, ky_last), ky_max = std::max(0, ky_last);
+    const std::uint8_t *row = src_data + std::size_t(iy0 + ky_min) * stride;
+    const v_int16x8 frx_v = cv::v_setall_s16(std::int16_t(frx));
+    const v_int16x8 fry_v = cv::v_setall_s16(std::int16_t(fry));
+    const v_int16x8 ky_step = cv::v_setall_s16(std::int16_t(ky_max));
+    for (int v = 0; v < C; ++v) {
+        v_int16x8 result[2];
+        for (int h = 0; h < 2; ++h) {
+            const std::int16_t *ox = steps.offset_x[v] + 8 * h;
+            const v_int16x8 rel_x = frx_v + cv::v_load(ox);
+            const v_int16x8 rel_y = fry_v + cv::v_load(steps.offset_y[v] + 8 * h);
+            // The half reads a window that starts at its first pixel's left tap.
+            const int k = (frx + ox[0]) >> 10;
+            const v_int16x8 kx = rel_x >> 10;  // rel_x >= 0
+            const v_int16x8 fx = (rel_x >> (10 - kFracBits)) & frac_mask;
+            const v_int16x8 fy_scaled = ((rel_y >> (10 - kFracBits)) & frac_mask) << 9;
+            v_int16x8 left = kx - cv::v_setall_s16(std::int16_t(k));
+            if (C == 2)
+                left = left + left;
+            left = left + cv::v_load(steps.channel + 8 * h);
+            const v_uint8x16 ctrl = cv::v_reinterpret_as_u8(left + ((left << 8) + next_tap));
+            const std::size_t byte = std::size_t(ix0 + k) * channels;
+            v_int16x8 value =
+                interpolateRows128(row + byte, row + stride + byte, ctrl, one - fx, fx, fy_scaled);
+            if (ky_max != ky_min) {
+                const v_int16x8 lower = interpolateRows128(row + stride + byte, row + 2 * stride + byte,
+                                                           ctrl, one - fx, fx, fy_scaled);
+                value = cv::v_select((rel_y >> 10) == ky_step, lower, value);
+            }
+            result[h] = (value + round) >> kFracBits;  // value >= 0
+        }
+        cv::v_store(out + v * 16, cv::v_pack_u(result[0], result[1]));
+    }
+}
+
 template <int C, class Matrices>
 UAVSTAB_TARGET_SIMD128 void warpRows128(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width,
                                         int row_begin, int row_end, Matrices &matrices, bool replicate,
@@ -646,10 +1034,6 @@ UAVSTAB_TARGET_SIMD128 void warpRows128(const PlaneSpan &src, std::uint8_t *dst,
 {
     constexpr int channels = C;
     const std::size_t stride = std::size_t(src.stride);
-    const v_int16x8 frac_mask = cv::v_setall_s16(kOne - 1);
-    const v_int16x8 one = cv::v_setall_s16(kOne);
-    const v_int16x8 round = cv::v_setall_s16(kOne / 2);
-    const v_int16x8 next_tap = cv::v_setall_s16(std::int16_t(channels << 8));
     RowPlan plan;
     for (int y = row_begin; y < row_end; ++y) {
         const double *m = matrices.row(y);
@@ -669,44 +1053,39 @@ UAVSTAB_TARGET_SIMD128 void warpRows128(const PlaneSpan &src, std::uint8_t *dst,
                     samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
                     continue;
                 }
-                const int ix0 = plan.ix0[c], frx = plan.frx[c];
-                const int ky_min = std::min(0, plan.ky_last[c]), ky_max = std::max(0, plan.ky_last[c]);
-                const std::uint8_t *row = src.data + std::size_t(plan.iy0[c] + ky_min) * stride;
-                const v_int16x8 frx_v = cv::v_setall_s16(std::int16_t(frx));
-                const v_int16x8 fry_v = cv::v_setall_s16(std::int16_t(plan.fry[c]));
-                const v_int16x8 ky_step = cv::v_setall_s16(std::int16_t(ky_max));
-                for (int v = 0; v < C; ++v) {
-                    v_int16x8 result[2];
-                    for (int h = 0; h < 2; ++h) {
-                        const std::int16_t *ox = steps.offset_x[v] + 8 * h;
-                        const v_int16x8 rel_x = frx_v + cv::v_load(ox);
-                        const v_int16x8 rel_y = fry_v + cv::v_load(steps.offset_y[v] + 8 * h);
-                        // The half reads a window that starts at its first pixel's left tap.
-                        const int k = (frx + ox[0]) >> 10;
-                        const v_int16x8 kx = rel_x >> 10;  // rel_x >= 0
-                        const v_int16x8 fx = (rel_x >> (10 - kFracBits)) & frac_mask;
-                        const v_int16x8 fy_scaled = ((rel_y >> (10 - kFracBits)) & frac_mask) << 9;
-                        v_int16x8 left = kx - cv::v_setall_s16(std::int16_t(k));
-                        if (C == 2)
-                            left = left + left;
-                        left = left + cv::v_load(steps.channel + 8 * h);
-                        const v_uint8x16 ctrl = cv::v_reinterpret_as_u8(left + ((left << 8) + next_tap));
-                        const std::size_t byte = std::size_t(ix0 + k) * channels;
-                        v_int16x8 value =
-                            interpolateRows128(row + byte, row + stride + byte, ctrl, one - fx, fx, fy_scaled);
-                        if (ky_max != ky_min) {
-                            const v_int16x8 lower = interpolateRows128(row + stride + byte, row + 2 * stride + byte,
-                                                                       ctrl, one - fx, fx, fy_scaled);
-                            value = cv::v_select((rel_y >> 10) == ky_step, lower, value);
-                        }
-                        result[h] = (value + round) >> kFracBits;  // value >= 0
-                    }
-                    cv::v_store(out + x * channels + v * 16, cv::v_pack_u(result[0], result[1]));
-                }
+                chunk128<C>(src.data, stride, steps, plan.ix0[c], plan.iy0[c], plan.frx[c], plan.fry[c],
+                            plan.ky_last[c], out + x * channels);
             }
         }
         const int x = chunks_in_row * kChunk;
         samplePixels(src, channels, m, replicate, border, out, x, y, dst_width - x);
+    }
+}
+
+// warpRows128 with a matrix per chunk, as warpMeshRowsAvx2.
+template <int C>
+UAVSTAB_TARGET_SIMD128 void warpMeshRows128(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width,
+                                            int row_begin, int row_end, MatrixPerChunk &chunks, bool replicate,
+                                            const std::uint8_t border[4])
+{
+    const std::size_t stride = std::size_t(src.stride);
+    const int chunks_in_row = dst_width / kChunk;
+    for (int y = row_begin; y < row_end; ++y) {
+        chunks.beginRow(y, chunks_in_row);
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        for (int c = 0; c < chunks_in_row; ++c) {
+            const int x = c * kChunk;
+            double m[6];
+            chunks.matrix(c, m);
+            ChunkPlan p;
+            if (!chunks.vectorOk(c) || !planChunk(src, C, m, chunks.lastWindow(c), chunks.lastOffsetY(c), x, y, p)) {
+                samplePixels(src, C, m, replicate, border, out, x, y, kChunk);
+                continue;
+            }
+            chunk128<C>(src.data, stride, chunks.steps(c), p.ix0, p.iy0, p.frx, p.fry, p.ky_min + p.ky_max,
+                        out + x * C);
+        }
+        samplePixelsAtMesh(src, C, chunks.mesh(), replicate, border, out, chunks_in_row * kChunk, y, dst_width);
     }
 }
 
@@ -738,10 +1117,11 @@ inline void store16(std::uint8_t *p, std::uint16_t v)
     std::memcpy(p, &v, 2);
 }
 
-// matrixOf(y): row y's matrix.
-template <bool Swap, class MatrixOf>
-void warpRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin, int row_end,
-                MatrixOf matrixOf, bool replicate, std::uint16_t border)
+// One 16-bit output pixel, any position: taps outside the frame read the border or the
+// nearest edge sample.
+template <bool Swap>
+inline void samplePixel16(const PlaneSpan &src, bool replicate, std::uint16_t border, std::uint8_t *out, double sx,
+                          double sy)
 {
     const auto at = [&](long x, long y) { return load16<Swap>(src.data + y * src.stride + x * 2); };
     const auto tap = [&](long x, long y) -> double {
@@ -752,26 +1132,33 @@ void warpRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst
         return at(std::clamp(x, 0L, long(src.width) - 1), std::clamp(y, 0L, long(src.height) - 1));
     };
     const double max_x = src.width + 1.0, max_y = src.height + 1.0;
-    // Any pixel: taps outside the frame read the border or the nearest edge sample.
-    const auto general = [&](std::uint8_t *out, double sx, double sy) {
-        if (!(sx >= -2.0 && sy >= -2.0 && sx <= max_x && sy <= max_y)) {
-            if (std::isnan(sx) || std::isnan(sy)) {
-                store16<Swap>(out, border);
-                return;
-            }
-            // Far outside is as good as just outside (keeps the integer maths in range).
-            sx = std::clamp(sx, -2.0, max_x);
-            sy = std::clamp(sy, -2.0, max_y);
+    if (!(sx >= -2.0 && sy >= -2.0 && sx <= max_x && sy <= max_y)) {
+        if (std::isnan(sx) || std::isnan(sy)) {
+            store16<Swap>(out, border);
+            return;
         }
-        // Truncation of a positive number is its floor (std::floor is a call on plain x86-64).
-        const long ix = long(sx + 2.0) - 2, iy = long(sy + 2.0) - 2;
-        const double fx = sx - double(ix), fy = sy - double(iy);
-        const double p00 = tap(ix, iy), p01 = tap(ix + 1, iy), p10 = tap(ix, iy + 1), p11 = tap(ix + 1, iy + 1);
-        const double t = p00 + (p01 - p00) * fx;
-        const double b = p10 + (p11 - p10) * fx;
-        const double v = t + (b - t) * fy;
-        // v lies between the taps (>= 0): truncating v + 0.5 rounds to the nearest count.
-        store16<Swap>(out, std::uint16_t(std::min(long(v + 0.5), 65535L)));
+        // Far outside is as good as just outside (keeps the integer maths in range).
+        sx = std::clamp(sx, -2.0, max_x);
+        sy = std::clamp(sy, -2.0, max_y);
+    }
+    // Truncation of a positive number is its floor (std::floor is a call on plain x86-64).
+    const long ix = long(sx + 2.0) - 2, iy = long(sy + 2.0) - 2;
+    const double fx = sx - double(ix), fy = sy - double(iy);
+    const double p00 = tap(ix, iy), p01 = tap(ix + 1, iy), p10 = tap(ix, iy + 1), p11 = tap(ix + 1, iy + 1);
+    const double t = p00 + (p01 - p00) * fx;
+    const double b = p10 + (p11 - p10) * fx;
+    const double v = t + (b - t) * fy;
+    // v lies between the taps (>= 0): truncating v + 0.5 rounds to the nearest count.
+    store16<Swap>(out, std::uint16_t(std::min(long(v + 0.5), 65535L)));
+}
+
+// matrixOf(y): row y's matrix.
+template <bool Swap, class MatrixOf>
+void warpRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin, int row_end,
+                MatrixOf matrixOf, bool replicate, std::uint16_t border)
+{
+    const auto general = [&](std::uint8_t *out, double sx, double sy) {
+        samplePixel16<Swap>(src, replicate, border, out, sx, sy);
     };
     // Output columns [lo, hi) of a row whose source lies in [0, limit - 1) along one axis
     // (s = a * x + c), a little inside so that rounding cannot take a tap out.
@@ -1058,6 +1445,163 @@ void warpPlaneBilinear16Rows(const PlaneSpan &src, std::uint8_t *dst, int dst_st
         warpRows16<true>(src, dst, dst_stride, dst_width, row_begin, row_end, matrixOf, replicate, border);
     else
         warpRows16<false>(src, dst, dst_stride, dst_width, row_begin, row_end, matrixOf, replicate, border);
+}
+
+namespace {
+
+// One mesh row's positions, column by column (the doubles WarpMesh::at gives).
+class MeshRow {
+public:
+    explicit MeshRow(const WarpMesh &mesh)
+        : mesh_(mesh), x_(std::size_t(mesh.columns)), y_(std::size_t(mesh.columns))
+    {
+    }
+    void begin(int y) { mesh_.rowAt(y, x_.data(), y_.data()); }
+    Point2 at(int x) const { return mesh_.alongRow(x_.data(), y_.data(), x); }
+
+private:
+    const WarpMesh &mesh_;
+    std::vector<double> x_, y_;
+};
+
+bool meshFits(const WarpMesh &mesh, int dst_width, int row_end)
+{
+    return mesh.cell % kChunk == 0 && mesh.covers(std::max(dst_width, 1), std::max(row_end, 1));
+}
+
+// 3- or 4-byte pixels at the mesh's positions, rounded to 1/32 px as OpenCV's warpAffine
+// rounds its positions ((round(s * 1024) + 16) >> 5), weighted as samplePixelCv4.
+template <int Channels>
+void warpMeshRowsCv(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                    int row_end, const WarpMesh &mesh, bool replicate, const std::uint8_t border[4])
+{
+    MeshRow row(mesh);
+    for (int y = row_begin; y < row_end; ++y) {
+        row.begin(y);
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        for (int x = 0; x < dst_width; ++x, out += Channels) {
+            const Point2 s = row.at(x);
+            if (std::isnan(s.x) || std::isnan(s.y)) {
+                std::copy(border, border + Channels, out);
+                continue;
+            }
+            // Far outside is as good as just outside (keeps the fixed point in range).
+            const int X = (cvRoundInt(std::clamp(s.x, -30000.0, 30000.0) * 1024) + 16) >> 5;
+            const int Y = (cvRoundInt(std::clamp(s.y, -30000.0, 30000.0) * 1024) + 16) >> 5;
+            const int sx = X >> 5, sy = Y >> 5, fx = X & 31, fy = Y & 31;
+            const int w[4] = {(32 - fx) * (32 - fy), fx * (32 - fy), (32 - fx) * fy, fx * fy};
+            const std::uint8_t *tap[4];
+            for (int k = 0; k < 4; ++k) {
+                int tx = sx + (k & 1), ty = sy + (k >> 1);
+                if (tx >= 0 && ty >= 0 && tx < src.width && ty < src.height) {
+                    tap[k] = src.data + std::size_t(ty) * src.stride + std::size_t(tx) * Channels;
+                } else if (replicate) {
+                    tx = std::clamp(tx, 0, src.width - 1);
+                    ty = std::clamp(ty, 0, src.height - 1);
+                    tap[k] = src.data + std::size_t(ty) * src.stride + std::size_t(tx) * Channels;
+                } else {
+                    tap[k] = border;
+                }
+            }
+            for (int c = 0; c < Channels; ++c) {
+                const int v = tap[0][c] * w[0] + tap[1][c] * w[1] + tap[2][c] * w[2] + tap[3][c] * w[3];
+                out[c] = std::uint8_t(std::min(255, (v + 512) >> 10));
+            }
+        }
+    }
+}
+
+template <bool Swap>
+void warpMeshRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                    int row_end, const WarpMesh &mesh, bool replicate, std::uint16_t border)
+{
+    MeshRow row(mesh);
+    for (int y = row_begin; y < row_end; ++y) {
+        row.begin(y);
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        for (int x = 0; x < dst_width; ++x) {
+            const Point2 s = row.at(x);
+            samplePixel16<Swap>(src, replicate, border, out + 2 * x, s.x, s.y);
+        }
+    }
+}
+
+} // namespace
+
+bool warpPlaneBilinear16Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                             int row_end, const WarpMesh &mesh, bool replicate, std::uint16_t border, bool swap)
+{
+    if (!mesh.covers(std::max(dst_width, 1), std::max(row_end, 1)) || src.width < 1 || src.height < 1)
+        return false;
+    if (swap)
+        warpMeshRows16<true>(src, dst, dst_stride, dst_width, row_begin, row_end, mesh, replicate, border);
+    else
+        warpMeshRows16<false>(src, dst, dst_stride, dst_width, row_begin, row_end, mesh, replicate, border);
+    return true;
+}
+
+bool warpPlaneBilinear4Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                            int row_end, const WarpMesh &mesh, bool replicate, const std::uint8_t border[4])
+{
+    if (!mesh.covers(std::max(dst_width, 1), std::max(row_end, 1)) || src.width < 1 || src.height < 1)
+        return false;
+    warpMeshRowsCv<4>(src, dst, dst_stride, dst_width, row_begin, row_end, mesh, replicate, border);
+    return true;
+}
+
+bool warpPlaneBilinear3Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                            int row_end, const WarpMesh &mesh, bool replicate, const std::uint8_t border[4])
+{
+    if (!mesh.covers(std::max(dst_width, 1), std::max(row_end, 1)) || src.width < 1 || src.height < 1)
+        return false;
+    warpMeshRowsCv<3>(src, dst, dst_stride, dst_width, row_begin, row_end, mesh, replicate, border);
+    return true;
+}
+
+bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                           int row_end, int channels, const WarpMesh &mesh, bool replicate,
+                           const std::uint8_t border[4])
+{
+    return warpPlaneBilinearMesh(src, dst, dst_stride, dst_width, row_begin, row_end, channels, mesh, replicate,
+                                 border, warpKernel());
+}
+
+bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                           int row_end, int channels, const WarpMesh &mesh, bool replicate,
+                           const std::uint8_t border[4], WarpKernel kernel)
+{
+    if (!warpKernelAvailable(kernel) || !(channels == 1 || channels == 2) || !meshFits(mesh, dst_width, row_end) ||
+        src.width < 1 || src.height < 1)
+        return false;
+    if (row_end <= row_begin)
+        return true;
+    MatrixPerChunk chunks(mesh, channels, src.width >= kChunk + 2, dst_width / kChunk);
+    switch (kernel) {
+    case WarpKernel::Avx2:
+#ifdef UAVSTAB_HAVE_X86
+        if (channels == 1)
+            warpMeshRowsAvx2<1>(src, dst, dst_stride, dst_width, row_begin, row_end, chunks, replicate, border);
+        else
+            warpMeshRowsAvx2<2>(src, dst, dst_stride, dst_width, row_begin, row_end, chunks, replicate, border);
+        return true;
+#else
+        return false;
+#endif
+    case WarpKernel::Simd128:
+#ifdef UAVSTAB_HAVE_SIMD128
+        if (channels == 1)
+            warpMeshRows128<1>(src, dst, dst_stride, dst_width, row_begin, row_end, chunks, replicate, border);
+        else
+            warpMeshRows128<2>(src, dst, dst_stride, dst_width, row_begin, row_end, chunks, replicate, border);
+        return true;
+#else
+        return false;
+#endif
+    case WarpKernel::Scalar:
+        warpMeshRowsScalar(src, dst, dst_stride, dst_width, row_begin, row_end, channels, chunks, replicate, border);
+        return true;
+    }
+    return false;
 }
 
 bool warpKernelAvailable(WarpKernel kernel)

@@ -21,6 +21,8 @@
 #include <array>
 #include <cstdint>
 
+#include "render/warp_mesh.hpp"
+
 namespace uavstab {
 
 struct PlaneSpan {
@@ -91,5 +93,42 @@ void warpPlaneBilinear16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride
 void warpPlaneBilinear16Rows(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                              int row_end, const std::array<double, 6> *row_m, bool replicate, std::uint16_t border,
                              bool swap);
+
+// ---- Mesh warps (lens correction): a source position per node of a coarse output grid,
+// bilinear between nodes (WarpMesh). dst rows [row_begin, row_end) of a plane; the mesh in
+// that plane's pixels, covering dst_width x row_end (WarpMesh::covers) with a cell that is a
+// multiple of 16. Every function returns false, having written nothing, when the mesh does
+// not cover the rows or the source is empty.
+
+// 1 or 2 interleaved bytes per pixel, in one pass, on every kernel (the same bytes on each).
+// Along an output row inside one cell the mesh is linear in x, so each 16-pixel chunk is
+// warped by its own 2x3 matrix (m1 = m4 = 0) exactly as warpPlaneBilinear warps a chunk
+// with that matrix; a chunk that matrix's warp would not take on the fast path (taps off
+// the frame, a step the window trick does not handle) is sampled per pixel with it, and the
+// columns past the last whole chunk per pixel at WarpMesh::at. So any mesh is handled. The
+// lane offsets come from the chunk's m0, m3 rounded to 2^-26 (the same as the matrix warp's
+// whenever they are multiples of 2^-16; else an offset may differ by 1/1024 px). Cost: the
+// chunk's matrix, offsets and plan are computed per chunk rather than per row: a 1080p I420
+// frame takes about 1.5 times the single-matrix warp (AVX2, one thread).
+bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                           int row_end, int channels, const WarpMesh &mesh, bool replicate,
+                           const std::uint8_t border[4]);
+// The same with a given kernel (tests); false also when the kernel is not available.
+bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                           int row_end, int channels, const WarpMesh &mesh, bool replicate,
+                           const std::uint8_t border[4], WarpKernel kernel);
+
+// 4 (or 3) interleaved bytes per pixel: per pixel, scalar, at WarpMesh::at rounded to
+// 1/32 px and weighted as OpenCV's fixed-point bilinear (warpPlaneBilinear4). Several times
+// the cost of the 4-byte single-matrix kernel (no vectors, bounds checked per tap).
+bool warpPlaneBilinear4Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                            int row_end, const WarpMesh &mesh, bool replicate, const std::uint8_t border[4]);
+bool warpPlaneBilinear3Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                            int row_end, const WarpMesh &mesh, bool replicate, const std::uint8_t border[4]);
+
+// 16-bit samples, per pixel at WarpMesh::at, with warpPlaneBilinear16's arithmetic and border
+// (a bounds check per tap: somewhat dearer than its single-matrix inner loop).
+bool warpPlaneBilinear16Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                             int row_end, const WarpMesh &mesh, bool replicate, std::uint16_t border, bool swap);
 
 } // namespace uavstab

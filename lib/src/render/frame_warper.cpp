@@ -151,6 +151,58 @@ void FrameWarper::warpRows(const FrameView &in, const FrameView &out, const Simi
     }
 }
 
+WarpMesh FrameWarper::planeMesh(const FrameView &frame, int plane,
+                                const std::function<Point2(Point2)> &luma_output_to_input, int cell)
+{
+    const PlaneLayout layout = planeLayout(frame.format, plane);
+    const double fx = layout.subsample_x, fy = layout.subsample_y;
+    // Plane pixel c sits at luma position f*c + o, o = (f-1)/2 (as in planeMatrix).
+    const double ox = (fx - 1) * 0.5, oy = (fy - 1) * 0.5;
+    return makeWarpMesh(frame.planeWidth(plane), frame.planeHeight(plane), cell, [&](Point2 q) {
+        const Point2 s = luma_output_to_input({fx * q.x + ox, fy * q.y + oy});
+        return Point2{(s.x - ox) / fx, (s.y - oy) / fy};
+    });
+}
+
+void FrameWarper::warpMeshRows(const FrameView &in, const FrameView &out, const std::vector<WarpMesh> &plane_meshes,
+                               int row_begin, int row_end) const
+{
+    checkFrames(in, out);
+    if (int(plane_meshes.size()) != in.planeCount())
+        throw std::invalid_argument("FrameWarper: one mesh per plane");
+    for (int p = 0; p < in.planeCount(); ++p)
+        if (!plane_meshes[std::size_t(p)].covers(in.planeWidth(p), in.planeHeight(p)) ||
+            plane_meshes[std::size_t(p)].cell % 16 != 0)
+            throw std::invalid_argument("FrameWarper: a mesh does not cover its plane");
+    row_begin = std::clamp(row_begin, 0, in.height);
+    row_end = std::clamp(row_end, row_begin, in.height);
+    const bool replicate = border_ == BorderMode::Replicate;
+
+    for (int p = 0; p < in.planeCount(); ++p) {
+        const PlaneLayout layout = planeLayout(in.format, p);
+        int y0, y1;
+        planeRows(in, p, row_begin, row_end, y0, y1);
+        if (y1 <= y0)
+            continue;
+        const WarpMesh &mesh = plane_meshes[std::size_t(p)];
+        const std::array<std::uint8_t, 4> border_value = borderBytes(blackFor(in.format, p));
+        const PlaneSpan span{in.planes[p].data, in.planes[p].stride, in.planeWidth(p), in.planeHeight(p)};
+        std::uint8_t *dst = out.planes[p].data;
+        const int dst_stride = out.planes[p].stride, dst_width = out.planeWidth(p);
+        // Each takes any mesh that covers its plane (checked above).
+        if (layout.bytes_per_sample == 2)
+            warpPlaneBilinear16Mesh(span, dst, dst_stride, dst_width, y0, y1, mesh, replicate, 0,
+                                    needsByteSwap(in.format));
+        else if (layout.channels == 4)
+            warpPlaneBilinear4Mesh(span, dst, dst_stride, dst_width, y0, y1, mesh, replicate, border_value.data());
+        else if (layout.channels == 3)
+            warpPlaneBilinear3Mesh(span, dst, dst_stride, dst_width, y0, y1, mesh, replicate, border_value.data());
+        else
+            warpPlaneBilinearMesh(span, dst, dst_stride, dst_width, y0, y1, layout.channels, mesh, replicate,
+                                  border_value.data());
+    }
+}
+
 void FrameWarper::warp(const FrameView &in, const FrameView &out, const RowTransforms &output_to_input) const
 {
     warpRows(in, out, output_to_input, 0, in.height);
