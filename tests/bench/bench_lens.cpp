@@ -210,12 +210,12 @@ void sectionCost(const Options &o)
     Fragment frag(o, "lens_cost");
     const int width = 1920, height = 1080;
     const int rounds = o.quick ? 5 : 15;
-    for (PixelFormat format : {PixelFormat::I420, PixelFormat::BGRx}) {
+    for (PixelFormat pixel_format : {PixelFormat::I420, PixelFormat::BGRx}) {
         synthetic::FlightOptions opt = flightOptions(width, height, 2, 1, 1.0);
-        opt.format = format;
+        opt.format = pixel_format;
         const synthetic::ShakyFlight flight(opt);
         const FrameBuffer in = flight.render(1);
-        FrameBuffer out(format, width, height, 0);
+        FrameBuffer out(pixel_format, width, height, 0);
         const Similarity correction{3.2, -2.1, 0.004, 1.0};
         const double zoom = 1.0 / 0.92;
         const Similarity output_to_input = correction.inverse() * Similarity{0.0, 0.0, 0.0, 1.0 / zoom};
@@ -242,9 +242,9 @@ void sectionCost(const Options &o)
         }
         frag.text(format("%s %dx%d, one thread, %d alternated rounds: warp %.2f ms without a lens, %.2f ms with the "
                          "fisheye (of which the meshes %.2f ms): %.2fx (median of the per-round ratios)",
-                         formatName(format), width, height, rounds, median(plain_ms), median(lens_ms),
+                         formatName(pixel_format), width, height, rounds, median(plain_ms), median(lens_ms),
                          median(mesh_ms), median(ratio)));
-        putResult(o, format("lens_cost_%s_ratio", formatName(format)), median(ratio));
+        putResult(o, format("lens_cost_%s_ratio", formatName(pixel_format)), median(ratio));
     }
 }
 
