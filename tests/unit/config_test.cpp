@@ -190,8 +190,10 @@ TEST(ConfigValidate, TrackingWindowMustBeOdd)
         EXPECT_EQ(refusal(withValue(p, w)).empty(), w % 2 == 1) << w;
 }
 
-TEST(ConfigValidate, OnlyThreadsIsFixedWhileRunning)
+TEST(ConfigValidate, OnlyThreadsAndTheLensAreFixedWhileRunning)
 {
-    for (const ConfigParam &p : configParams())
-        EXPECT_EQ(p.atStartOnly(), std::string(p.name) == "threads") << p.name;
+    for (const ConfigParam &p : configParams()) {
+        const std::string name = p.name;
+        EXPECT_EQ(p.atStartOnly(), name == "threads" || name == "lens_profile" || name == "lens_output") << name;
+    }
 }
