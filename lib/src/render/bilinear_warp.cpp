@@ -206,8 +206,10 @@ constexpr int lanePixel(int channels, int v, int l)
 class MatrixPerChunk {
 public:
     MatrixPerChunk(const WarpMesh &mesh, int channels, bool window_fits, int chunks_in_row)
-        : mesh_(mesh), row_x_(std::size_t(mesh.columns)), row_y_(std::size_t(mesh.columns)),
-          steps_(laneSteps(kIdentity, channels)), channels_(channels), window_fits_(window_fits)
+        // The row's nodes with room for beginRowAvx2's groups of 4 chunks (5 nodes).
+        : mesh_(mesh), row_x_(std::size_t(std::max(mesh.columns, chunks_in_row + 5)), 0.0),
+          row_y_(row_x_.size(), 0.0), steps_(laneSteps(kIdentity, channels)), channels_(channels),
+          window_fits_(window_fits)
     {
         // Room for 3 entries past the last chunk: the AVX2 planner reads groups of 4.
         const std::size_t n = std::size_t(chunks_in_row) + 4;
@@ -221,31 +223,48 @@ public:
     // Every chunk's matrix of output row y (chunk c at columns [16 c, 16 c + 16)), and for
     // those the window trick takes (warpPlaneBilinearHandles' bounds, which also keep the
     // offsets in 16 bits) its steps.
-    void beginRow(int y, int chunks_in_row)
+    // (Inlined, so that the AVX2 kernel gets it vectorised.)
+    __attribute__((always_inline)) void beginRow(int y, int chunks_in_row)
     {
         mesh_.rowAt(y, row_x_.data(), row_y_.data());
+        if (mesh_.cell == kChunk) {
+            beginRowOf<kChunk>(chunks_in_row);
+            return;
+        }
         const int per_cell = mesh_.cell / kChunk;
         for (int c = 0, cell = 0, in_cell = 0; c < chunks_in_row; ++c) {
-            const double x_a = double(cell) * mesh_.cell;
-            const double ax = row_x_[std::size_t(cell)], bx = row_x_[std::size_t(cell) + 1];
-            const double ay = row_y_[std::size_t(cell)], by = row_y_[std::size_t(cell) + 1];
-            const double m0 = (bx - ax) / mesh_.cell, m3 = (by - ay) / mesh_.cell;
-            m0_[std::size_t(c)] = m0;
-            m2_[std::size_t(c)] = ax - m0 * x_a;
-            m3_[std::size_t(c)] = m3;
-            m5_[std::size_t(c)] = ay - m3 * x_a;
-            const bool ok = window_fits_ && m0 > 0.0 && m0 <= 1.25 && std::abs(m3) * (kChunk - 1) <= 0.9;
-            vector_ok_[std::size_t(c)] = ok;
-            const int step_x = ok ? fixedStep(m0) : 0, step_y = ok ? fixedStep(m3) : 0;
-            step_x_[std::size_t(c)] = step_x;
-            step_y_[std::size_t(c)] = step_y;
-            last_window_[std::size_t(c)] = chunkOffset(step_x, lanePixel(channels_, channels_ - 1, 8));
-            last_offset_y_[std::size_t(c)] = chunkOffset(step_y, lanePixel(channels_, channels_ - 1, 15));
+            setChunk(c, cell, mesh_.cell);
             if (++in_cell == per_cell) {
                 in_cell = 0;
                 ++cell;
             }
         }
+    }
+    // One cell per chunk, the cell a constant (its division a multiplication when exact).
+    template <int Cell>
+    __attribute__((always_inline)) void beginRowOf(int chunks_in_row)
+    {
+        for (int c = 0; c < chunks_in_row; ++c)
+            setChunk(c, c, Cell);
+    }
+    // Chunk c's entries from cell `cell`'s nodes (what beginRow computes).
+    __attribute__((always_inline)) void setChunk(int c, int cell, int cell_size)
+    {
+        const double x_a = double(cell) * cell_size;
+        const double ax = row_x_[std::size_t(cell)], bx = row_x_[std::size_t(cell) + 1];
+        const double ay = row_y_[std::size_t(cell)], by = row_y_[std::size_t(cell) + 1];
+        const double m0 = (bx - ax) / cell_size, m3 = (by - ay) / cell_size;
+        m0_[std::size_t(c)] = m0;
+        m2_[std::size_t(c)] = ax - m0 * x_a;
+        m3_[std::size_t(c)] = m3;
+        m5_[std::size_t(c)] = ay - m3 * x_a;
+        const bool ok = window_fits_ && m0 > 0.0 && m0 <= 1.25 && std::abs(m3) * (kChunk - 1) <= 0.9;
+        vector_ok_[std::size_t(c)] = ok;
+        const int step_x = ok ? fixedStep(m0) : 0, step_y = ok ? fixedStep(m3) : 0;
+        step_x_[std::size_t(c)] = step_x;
+        step_y_[std::size_t(c)] = step_y;
+        last_window_[std::size_t(c)] = chunkOffset(step_x, lanePixel(channels_, channels_ - 1, 8));
+        last_offset_y_[std::size_t(c)] = chunkOffset(step_y, lanePixel(channels_, channels_ - 1, 15));
     }
     // Chunk c's matrix.
     void matrix(int c, double m[6]) const
@@ -284,6 +303,11 @@ public:
     }
     // The lane layout (channel, half), the same for every chunk.
     const LaneSteps &layout() const { return steps_; }
+#ifdef UAVSTAB_HAVE_X86
+    // beginRow, four chunks at a time in double vectors for one-chunk cells: the same
+    // operations, so the same entries.
+    void beginRowAvx2(int y, int chunks_in_row);
+#endif
     // The row's arrays, for the AVX2 planner.
     const double *m0() const { return m0_.data(); }
     const double *m2() const { return m2_.data(); }
@@ -779,6 +803,63 @@ void warpMeshRowsScalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
 
 #ifdef UAVSTAB_HAVE_X86
 
+__attribute__((target("avx2"))) void MatrixPerChunk::beginRowAvx2(int y, int chunks_in_row)
+{
+    if (mesh_.cell != kChunk) {
+        beginRow(y, chunks_in_row);
+        return;
+    }
+    mesh_.rowAt(y, row_x_.data(), row_y_.data());
+    const __m256d inv_cell = _mm256_set1_pd(1.0 / kChunk);  // exact: as the division
+    const __m256d zero = _mm256_setzero_pd(), max_m0 = _mm256_set1_pd(1.25), max_slope = _mm256_set1_pd(0.9);
+    const __m256d last = _mm256_set1_pd(double(kChunk - 1)), sign_bit = _mm256_set1_pd(-0.0);
+    const __m256d scale = _mm256_set1_pd(double(1 << kStepBits)), half = _mm256_set1_pd(0.5);
+    const __m256d minus_half = _mm256_set1_pd(-0.5);
+    const __m128i fits = _mm_set1_epi32(window_fits_ ? -1 : 0);
+    const __m128i round = _mm_set1_epi32(1 << 15);
+    const __m128i window_pixel = _mm_set1_epi32(lanePixel(channels_, channels_ - 1, 8));
+    const __m128i last_pixel = _mm_set1_epi32(lanePixel(channels_, channels_ - 1, 15));
+    const __m256i low_halves = _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0);
+    // A double mask's lanes as 32-bit ones.
+    const auto mask32 = [&](__m256d mask) __attribute__((target("avx2"))) {
+        return _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(mask), low_halves));
+    };
+    const auto fixedSteps = [&](__m256d m) __attribute__((target("avx2"))) {
+        const __m256d v = _mm256_mul_pd(m, scale);
+        const __m128i i = _mm256_cvttpd_epi32(v);
+        const __m256d f = _mm256_sub_pd(v, _mm256_cvtepi32_pd(i));
+        // i + (f >= 0.5) - (f <= -0.5): a true mask is -1.
+        return _mm_add_epi32(_mm_sub_epi32(i, mask32(_mm256_cmp_pd(f, half, _CMP_GE_OQ))),
+                             mask32(_mm256_cmp_pd(f, minus_half, _CMP_LE_OQ)));
+    };
+    const auto offsets = [&](__m128i step, __m128i pixel) __attribute__((target("avx2"))) {
+        const __m128i r = _mm_srli_epi32(_mm_add_epi32(_mm_mullo_epi32(pixel, _mm_abs_epi32(step)), round), 16);
+        return _mm_sign_epi32(r, step);
+    };
+    for (int c = 0; c < chunks_in_row; c += 4) {
+        const __m256d x_a = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(c * kChunk), _mm_setr_epi32(0, 16, 32, 48)));
+        const __m256d ax = _mm256_loadu_pd(row_x_.data() + c), bx = _mm256_loadu_pd(row_x_.data() + c + 1);
+        const __m256d ay = _mm256_loadu_pd(row_y_.data() + c), by = _mm256_loadu_pd(row_y_.data() + c + 1);
+        const __m256d m0 = _mm256_mul_pd(_mm256_sub_pd(bx, ax), inv_cell);
+        const __m256d m3 = _mm256_mul_pd(_mm256_sub_pd(by, ay), inv_cell);
+        _mm256_storeu_pd(m0_.data() + c, m0);
+        _mm256_storeu_pd(m2_.data() + c, _mm256_sub_pd(ax, _mm256_mul_pd(m0, x_a)));
+        _mm256_storeu_pd(m3_.data() + c, m3);
+        _mm256_storeu_pd(m5_.data() + c, _mm256_sub_pd(ay, _mm256_mul_pd(m3, x_a)));
+        const __m256d slope = _mm256_mul_pd(_mm256_andnot_pd(sign_bit, m3), last);
+        const __m256d ok_d = _mm256_and_pd(
+            _mm256_and_pd(_mm256_cmp_pd(m0, zero, _CMP_GT_OQ), _mm256_cmp_pd(m0, max_m0, _CMP_LE_OQ)),
+            _mm256_cmp_pd(slope, max_slope, _CMP_LE_OQ));
+        const __m128i ok = _mm_and_si128(fits, mask32(ok_d));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(vector_ok_.data() + c), _mm_and_si128(ok, _mm_set1_epi32(1)));
+        const __m128i step_x = _mm_and_si128(ok, fixedSteps(m0)), step_y = _mm_and_si128(ok, fixedSteps(m3));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(step_x_.data() + c), step_x);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(step_y_.data() + c), step_y);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(last_window_.data() + c), offsets(step_x, window_pixel));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(last_offset_y_.data() + c), offsets(step_y, last_pixel));
+    }
+}
+
 // planChunk for chunks [0, chunks) of a mesh row, four at a time, each with its own matrix
 // (m1 = m4 = 0) and lane offsets: the operations of planChunksAvx2<false>, lane by lane the
 // same as planChunk's, so the same decisions. A chunk the window trick does not take
@@ -855,29 +936,29 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
     lanes.next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
     const std::size_t stride = std::size_t(src.stride);
     Avx2RowSteps row_steps[C] = {};
-    // The lanes' pixels j (32-bit, two vectors per 16 lanes), for the offsets j * step.
-    __m256i pixel_lo[C], pixel_hi[C];
+    // chunkOffset for the 16 lanes of vector v in 16-bit lanes: with |step| = h 2^16 + l,
+    // (j |step| + 2^15) >> 16 = j h + (j l + 2^15) >> 16, and (j l + 2^15) >> 16 =
+    // ((2 j l >> 16) + 1) >> 1 (a floor of a floor), 2 j l >> 16 an unsigned mulhi.
+    __m256i pixel[C], pixel2[C];  // the lanes' pixels j, and 2 j
     for (int v = 0; v < C; ++v) {
-        alignas(32) std::int32_t j[16];
+        alignas(32) std::int16_t j[16];
         for (int l = 0; l < 16; ++l)
-            j[l] = lanePixel(C, v, l);
-        pixel_lo[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(j));
-        pixel_hi[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(j + 8));
+            j[l] = std::int16_t(lanePixel(C, v, l));
+        pixel[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(j));
+        pixel2[v] = _mm256_add_epi16(pixel[v], pixel[v]);
     }
-    const __m256i half = _mm256_set1_epi32(1 << 15);
-    // chunkOffset for 16 lanes: the pack interleaves 128-bit halves, the permute restores them.
+    const __m256i one16 = _mm256_set1_epi16(1);
     const auto offsets = [&](int v, int step) __attribute__((target("avx2"))) {
-        const __m256i a = _mm256_set1_epi32(std::abs(step)), sign = _mm256_set1_epi32(step);
-        const __m256i lo = _mm256_sign_epi32(
-            _mm256_srli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(pixel_lo[v], a), half), 16), sign);
-        const __m256i hi = _mm256_sign_epi32(
-            _mm256_srli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(pixel_hi[v], a), half), 16), sign);
-        return _mm256_permute4x64_epi64(_mm256_packs_epi32(lo, hi), 0xD8);
+        const int a = std::abs(step);
+        const __m256i high = _mm256_mullo_epi16(pixel[v], _mm256_set1_epi16(std::int16_t(a >> 16)));
+        const __m256i low = _mm256_srli_epi16(
+            _mm256_add_epi16(_mm256_mulhi_epu16(pixel2[v], _mm256_set1_epi16(std::int16_t(a & 0xffff))), one16), 1);
+        return _mm256_sign_epi16(_mm256_add_epi16(high, low), _mm256_set1_epi16(std::int16_t(step < 0 ? -1 : 1)));
     };
     const int chunks_in_row = dst_width / kChunk;
     RowPlan plan;
     for (int y = row_begin; y < row_end; ++y) {
-        chunks.beginRow(y, chunks_in_row);
+        chunks.beginRowAvx2(y, chunks_in_row);
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         bool have_steps = false;
         int steps_x = 0, steps_y = 0;  // the steps row_steps holds

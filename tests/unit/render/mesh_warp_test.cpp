@@ -214,6 +214,30 @@ TEST(MeshWarpKernels, EveryKernelWritesTheSameBytesAsTheScalarReference)
             std::printf("%s: %d mesh warps identical to scalar\n", warpKernelName(kKernels[k]), compared[k]);
 }
 
+TEST(MeshWarpKernels, WideRowsWriteTheSameBytesAsTheScalarReference)
+{
+    // Rows of more chunks than a kernel plans at once (64), with an odd tail.
+    std::mt19937 rng(99);
+    for (int channels : {1, 2}) {
+        const int w = 1500, h = 40, dst_width = 1437, dst_height = 37;
+        const TestPlane src = noisePlane(rng, w, h, channels, 7);
+        const LensMap lens(dst_width, dst_height, -0.15, 0.01, 1.02, 20.0, 1.0);
+        const WarpMesh mesh = makeWarpMesh(dst_width, dst_height, 16, lens);
+        const std::uint8_t border[4] = {16, 128, 0, 0};
+        std::vector<std::uint8_t> reference(std::size_t(dst_width * channels) * dst_height);
+        ASSERT_TRUE(warpPlaneBilinearMesh(src.span(), reference.data(), dst_width * channels, dst_width, 0, dst_height,
+                                          channels, mesh, false, border, WarpKernel::Scalar));
+        for (WarpKernel kernel : {WarpKernel::Simd128, WarpKernel::Avx2}) {
+            if (!warpKernelAvailable(kernel))
+                continue;
+            std::vector<std::uint8_t> out(reference.size());
+            ASSERT_TRUE(warpPlaneBilinearMesh(src.span(), out.data(), dst_width * channels, dst_width, 0, dst_height,
+                                              channels, mesh, false, border, kernel));
+            EXPECT_TRUE(out == reference) << warpKernelName(kernel) << " channels " << channels;
+        }
+    }
+}
+
 TEST(MeshWarpKernels, AnAffineMeshWritesTheMatrixWarpsBytes)
 {
     // A mesh sampled from a matrix whose entries are multiples of 2^-12 (and nodes at
