@@ -206,8 +206,10 @@ constexpr int lanePixel(int channels, int v, int l)
 class MatrixPerChunk {
 public:
     MatrixPerChunk(const WarpMesh &mesh, int channels, bool window_fits, int chunks_in_row)
-        : mesh_(mesh), row_x_(std::size_t(mesh.columns)), row_y_(std::size_t(mesh.columns)),
-          steps_(laneSteps(kIdentity, channels)), channels_(channels), window_fits_(window_fits)
+        // The row's nodes with room for beginRowAvx2's groups of 4 chunks (5 nodes).
+        : mesh_(mesh), row_x_(std::size_t(std::max(mesh.columns, chunks_in_row + 5)), 0.0),
+          row_y_(row_x_.size(), 0.0), steps_(laneSteps(kIdentity, channels)), channels_(channels),
+          window_fits_(window_fits)
     {
         // Room for 3 entries past the last chunk: the AVX2 planner reads groups of 4.
         const std::size_t n = std::size_t(chunks_in_row) + 4;
@@ -221,31 +223,48 @@ public:
     // Every chunk's matrix of output row y (chunk c at columns [16 c, 16 c + 16)), and for
     // those the window trick takes (warpPlaneBilinearHandles' bounds, which also keep the
     // offsets in 16 bits) its steps.
-    void beginRow(int y, int chunks_in_row)
+    // (Inlined, so that the AVX2 kernel gets it vectorised.)
+    __attribute__((always_inline)) void beginRow(int y, int chunks_in_row)
     {
         mesh_.rowAt(y, row_x_.data(), row_y_.data());
+        if (mesh_.cell == kChunk) {
+            beginRowOf<kChunk>(chunks_in_row);
+            return;
+        }
         const int per_cell = mesh_.cell / kChunk;
         for (int c = 0, cell = 0, in_cell = 0; c < chunks_in_row; ++c) {
-            const double x_a = double(cell) * mesh_.cell;
-            const double ax = row_x_[std::size_t(cell)], bx = row_x_[std::size_t(cell) + 1];
-            const double ay = row_y_[std::size_t(cell)], by = row_y_[std::size_t(cell) + 1];
-            const double m0 = (bx - ax) / mesh_.cell, m3 = (by - ay) / mesh_.cell;
-            m0_[std::size_t(c)] = m0;
-            m2_[std::size_t(c)] = ax - m0 * x_a;
-            m3_[std::size_t(c)] = m3;
-            m5_[std::size_t(c)] = ay - m3 * x_a;
-            const bool ok = window_fits_ && m0 > 0.0 && m0 <= 1.25 && std::abs(m3) * (kChunk - 1) <= 0.9;
-            vector_ok_[std::size_t(c)] = ok;
-            const int step_x = ok ? fixedStep(m0) : 0, step_y = ok ? fixedStep(m3) : 0;
-            step_x_[std::size_t(c)] = step_x;
-            step_y_[std::size_t(c)] = step_y;
-            last_window_[std::size_t(c)] = chunkOffset(step_x, lanePixel(channels_, channels_ - 1, 8));
-            last_offset_y_[std::size_t(c)] = chunkOffset(step_y, lanePixel(channels_, channels_ - 1, 15));
+            setChunk(c, cell, mesh_.cell);
             if (++in_cell == per_cell) {
                 in_cell = 0;
                 ++cell;
             }
         }
+    }
+    // One cell per chunk, the cell a constant (its division a multiplication when exact).
+    template <int Cell>
+    __attribute__((always_inline)) void beginRowOf(int chunks_in_row)
+    {
+        for (int c = 0; c < chunks_in_row; ++c)
+            setChunk(c, c, Cell);
+    }
+    // Chunk c's entries from cell `cell`'s nodes (what beginRow computes).
+    __attribute__((always_inline)) void setChunk(int c, int cell, int cell_size)
+    {
+        const double x_a = double(cell) * cell_size;
+        const double ax = row_x_[std::size_t(cell)], bx = row_x_[std::size_t(cell) + 1];
+        const double ay = row_y_[std::size_t(cell)], by = row_y_[std::size_t(cell) + 1];
+        const double m0 = (bx - ax) / cell_size, m3 = (by - ay) / cell_size;
+        m0_[std::size_t(c)] = m0;
+        m2_[std::size_t(c)] = ax - m0 * x_a;
+        m3_[std::size_t(c)] = m3;
+        m5_[std::size_t(c)] = ay - m3 * x_a;
+        const bool ok = window_fits_ && m0 > 0.0 && m0 <= 1.25 && std::abs(m3) * (kChunk - 1) <= 0.9;
+        vector_ok_[std::size_t(c)] = ok;
+        const int step_x = ok ? fixedStep(m0) : 0, step_y = ok ? fixedStep(m3) : 0;
+        step_x_[std::size_t(c)] = step_x;
+        step_y_[std::size_t(c)] = step_y;
+        last_window_[std::size_t(c)] = chunkOffset(step_x, lanePixel(channels_, channels_ - 1, 8));
+        last_offset_y_[std::size_t(c)] = chunkOffset(step_y, lanePixel(channels_, channels_ - 1, 15));
     }
     // Chunk c's matrix.
     void matrix(int c, double m[6]) const
@@ -284,6 +303,11 @@ public:
     }
     // The lane layout (channel, half), the same for every chunk.
     const LaneSteps &layout() const { return steps_; }
+#ifdef UAVSTAB_HAVE_X86
+    // beginRow, four chunks at a time in double vectors for one-chunk cells: the same
+    // operations, so the same entries.
+    void beginRowAvx2(int y, int chunks_in_row);
+#endif
     // The row's arrays, for the AVX2 planner.
     const double *m0() const { return m0_.data(); }
     const double *m2() const { return m2_.data(); }
@@ -779,6 +803,63 @@ void warpMeshRowsScalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
 
 #ifdef UAVSTAB_HAVE_X86
 
+__attribute__((target("avx2"))) void MatrixPerChunk::beginRowAvx2(int y, int chunks_in_row)
+{
+    if (mesh_.cell != kChunk) {
+        beginRow(y, chunks_in_row);
+        return;
+    }
+    mesh_.rowAt(y, row_x_.data(), row_y_.data());
+    const __m256d inv_cell = _mm256_set1_pd(1.0 / kChunk);  // exact: as the division
+    const __m256d zero = _mm256_setzero_pd(), max_m0 = _mm256_set1_pd(1.25), max_slope = _mm256_set1_pd(0.9);
+    const __m256d last = _mm256_set1_pd(double(kChunk - 1)), sign_bit = _mm256_set1_pd(-0.0);
+    const __m256d scale = _mm256_set1_pd(double(1 << kStepBits)), half = _mm256_set1_pd(0.5);
+    const __m256d minus_half = _mm256_set1_pd(-0.5);
+    const __m128i fits = _mm_set1_epi32(window_fits_ ? -1 : 0);
+    const __m128i round = _mm_set1_epi32(1 << 15);
+    const __m128i window_pixel = _mm_set1_epi32(lanePixel(channels_, channels_ - 1, 8));
+    const __m128i last_pixel = _mm_set1_epi32(lanePixel(channels_, channels_ - 1, 15));
+    const __m256i low_halves = _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0);
+    // A double mask's lanes as 32-bit ones.
+    const auto mask32 = [&](__m256d mask) __attribute__((target("avx2"))) {
+        return _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(mask), low_halves));
+    };
+    const auto fixedSteps = [&](__m256d m) __attribute__((target("avx2"))) {
+        const __m256d v = _mm256_mul_pd(m, scale);
+        const __m128i i = _mm256_cvttpd_epi32(v);
+        const __m256d f = _mm256_sub_pd(v, _mm256_cvtepi32_pd(i));
+        // i + (f >= 0.5) - (f <= -0.5): a true mask is -1.
+        return _mm_add_epi32(_mm_sub_epi32(i, mask32(_mm256_cmp_pd(f, half, _CMP_GE_OQ))),
+                             mask32(_mm256_cmp_pd(f, minus_half, _CMP_LE_OQ)));
+    };
+    const auto offsets = [&](__m128i step, __m128i pixel) __attribute__((target("avx2"))) {
+        const __m128i r = _mm_srli_epi32(_mm_add_epi32(_mm_mullo_epi32(pixel, _mm_abs_epi32(step)), round), 16);
+        return _mm_sign_epi32(r, step);
+    };
+    for (int c = 0; c < chunks_in_row; c += 4) {
+        const __m256d x_a = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(c * kChunk), _mm_setr_epi32(0, 16, 32, 48)));
+        const __m256d ax = _mm256_loadu_pd(row_x_.data() + c), bx = _mm256_loadu_pd(row_x_.data() + c + 1);
+        const __m256d ay = _mm256_loadu_pd(row_y_.data() + c), by = _mm256_loadu_pd(row_y_.data() + c + 1);
+        const __m256d m0 = _mm256_mul_pd(_mm256_sub_pd(bx, ax), inv_cell);
+        const __m256d m3 = _mm256_mul_pd(_mm256_sub_pd(by, ay), inv_cell);
+        _mm256_storeu_pd(m0_.data() + c, m0);
+        _mm256_storeu_pd(m2_.data() + c, _mm256_sub_pd(ax, _mm256_mul_pd(m0, x_a)));
+        _mm256_storeu_pd(m3_.data() + c, m3);
+        _mm256_storeu_pd(m5_.data() + c, _mm256_sub_pd(ay, _mm256_mul_pd(m3, x_a)));
+        const __m256d slope = _mm256_mul_pd(_mm256_andnot_pd(sign_bit, m3), last);
+        const __m256d ok_d = _mm256_and_pd(
+            _mm256_and_pd(_mm256_cmp_pd(m0, zero, _CMP_GT_OQ), _mm256_cmp_pd(m0, max_m0, _CMP_LE_OQ)),
+            _mm256_cmp_pd(slope, max_slope, _CMP_LE_OQ));
+        const __m128i ok = _mm_and_si128(fits, mask32(ok_d));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(vector_ok_.data() + c), _mm_and_si128(ok, _mm_set1_epi32(1)));
+        const __m128i step_x = _mm_and_si128(ok, fixedSteps(m0)), step_y = _mm_and_si128(ok, fixedSteps(m3));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(step_x_.data() + c), step_x);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(step_y_.data() + c), step_y);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(last_window_.data() + c), offsets(step_x, window_pixel));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(last_offset_y_.data() + c), offsets(step_y, last_pixel));
+    }
+}
+
 // planChunk for chunks [0, chunks) of a mesh row, four at a time, each with its own matrix
 // (m1 = m4 = 0) and lane offsets: the operations of planChunksAvx2<false>, lane by lane the
 // same as planChunk's, so the same decisions. A chunk the window trick does not take
@@ -855,29 +936,29 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
     lanes.next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
     const std::size_t stride = std::size_t(src.stride);
     Avx2RowSteps row_steps[C] = {};
-    // The lanes' pixels j (32-bit, two vectors per 16 lanes), for the offsets j * step.
-    __m256i pixel_lo[C], pixel_hi[C];
+    // chunkOffset for the 16 lanes of vector v in 16-bit lanes: with |step| = h 2^16 + l,
+    // (j |step| + 2^15) >> 16 = j h + (j l + 2^15) >> 16, and (j l + 2^15) >> 16 =
+    // ((2 j l >> 16) + 1) >> 1 (a floor of a floor), 2 j l >> 16 an unsigned mulhi.
+    __m256i pixel[C], pixel2[C];  // the lanes' pixels j, and 2 j
     for (int v = 0; v < C; ++v) {
-        alignas(32) std::int32_t j[16];
+        alignas(32) std::int16_t j[16];
         for (int l = 0; l < 16; ++l)
-            j[l] = lanePixel(C, v, l);
-        pixel_lo[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(j));
-        pixel_hi[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(j + 8));
+            j[l] = std::int16_t(lanePixel(C, v, l));
+        pixel[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(j));
+        pixel2[v] = _mm256_add_epi16(pixel[v], pixel[v]);
     }
-    const __m256i half = _mm256_set1_epi32(1 << 15);
-    // chunkOffset for 16 lanes: the pack interleaves 128-bit halves, the permute restores them.
+    const __m256i one16 = _mm256_set1_epi16(1);
     const auto offsets = [&](int v, int step) __attribute__((target("avx2"))) {
-        const __m256i a = _mm256_set1_epi32(std::abs(step)), sign = _mm256_set1_epi32(step);
-        const __m256i lo = _mm256_sign_epi32(
-            _mm256_srli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(pixel_lo[v], a), half), 16), sign);
-        const __m256i hi = _mm256_sign_epi32(
-            _mm256_srli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(pixel_hi[v], a), half), 16), sign);
-        return _mm256_permute4x64_epi64(_mm256_packs_epi32(lo, hi), 0xD8);
+        const int a = std::abs(step);
+        const __m256i high = _mm256_mullo_epi16(pixel[v], _mm256_set1_epi16(std::int16_t(a >> 16)));
+        const __m256i low = _mm256_srli_epi16(
+            _mm256_add_epi16(_mm256_mulhi_epu16(pixel2[v], _mm256_set1_epi16(std::int16_t(a & 0xffff))), one16), 1);
+        return _mm256_sign_epi16(_mm256_add_epi16(high, low), _mm256_set1_epi16(std::int16_t(step < 0 ? -1 : 1)));
     };
     const int chunks_in_row = dst_width / kChunk;
     RowPlan plan;
     for (int y = row_begin; y < row_end; ++y) {
-        chunks.beginRow(y, chunks_in_row);
+        chunks.beginRowAvx2(y, chunks_in_row);
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         bool have_steps = false;
         int steps_x = 0, steps_y = 0;  // the steps row_steps holds
@@ -1302,11 +1383,107 @@ void warpRowsCv4Scalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, 
 
 #ifdef UAVSTAB_HAVE_X86
 
-// Eight output pixels at a time. Positions: m0 x 1024 and m3 x 1024 rounded once per call
-// into a table (as OpenCV's adelta, bdelta; the same double operations, so the same
-// roundings as the scalar code). Pixels whose four taps all lie inside the frame: the taps
-// of each four read from one 32-byte window of each source row (a permute) when the four
-// share a source row and fit in it, else with a gather. Any other pixel: per pixel.
+// Eight 4-byte output pixels at fixed-point positions X, Y (1/32 px, as samplePixelCv4
+// takes them). Pixels whose four taps all lie inside the frame: the taps of each four read
+// from one 32-byte window of each source row (a permute) when the four share a source row
+// and fit in it, else with a gather. Any other pixel: per pixel. The positions must move
+// monotonically along the eight (a linear map rounded).
+class Cv4PixelsAvx2 {
+public:
+    __attribute__((target("avx2"))) Cv4PixelsAvx2(const PlaneSpan &src, bool replicate, const std::uint8_t *border)
+        : src_(src), replicate_(replicate), border_(border), base_(reinterpret_cast<const long long *>(src.data))
+    {
+        w2_ = _mm256_set1_epi32(src.width - 2);
+        h2_ = _mm256_set1_epi32(src.height - 2);
+        m31_ = _mm256_set1_epi32(31);
+        k32_ = _mm256_set1_epi32(32);
+        stride_ = _mm_set1_epi32(src.stride);
+        pair_bytes_ = _mm256_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15, 0, 4, 1, 5, 2, 6, 3, 7, 8,
+                                       12, 9, 13, 10, 14, 11, 15);
+        one64_ = _mm256_set1_epi64x(1);
+        pixels_a_ = _mm256_setr_epi32(0, 0, 1, 1, 2, 2, 3, 3);
+        pixels_b_ = _mm256_setr_epi32(4, 4, 5, 5, 6, 6, 7, 7);
+        sixteen_ = _mm256_set1_epi16(16);
+    }
+
+    __attribute__((target("avx2"))) void operator()(__m256i X, __m256i Y, std::uint8_t *out) const
+    {
+        const __m256i sx = _mm256_srai_epi32(X, 5), sy = _mm256_srai_epi32(Y, 5);
+        // Inside: 0 <= sx <= width - 2 and 0 <= sy <= height - 2 (unsigned compares).
+        const __m256i inside = _mm256_and_si256(_mm256_cmpeq_epi32(_mm256_min_epu32(sx, w2_), sx),
+                                                _mm256_cmpeq_epi32(_mm256_min_epu32(sy, h2_), sy));
+        if (_mm256_movemask_epi8(inside) != -1) {
+            alignas(32) int xv[8], yv[8];
+            _mm256_store_si256(reinterpret_cast<__m256i *>(xv), X);
+            _mm256_store_si256(reinterpret_cast<__m256i *>(yv), Y);
+            for (int j = 0; j < 8; ++j)
+                samplePixelCv4(src_, xv[j], yv[j], replicate_, border_, out + 4 * j);
+            return;
+        }
+        const __m256i fx = _mm256_and_si256(X, m31_), fy = _mm256_and_si256(Y, m31_);
+        // Horizontal weights (32 - fx, fx) as byte pairs and the vertical fy << 10, one
+        // pixel per 64-bit lane.
+        const __m256i wx1 = _mm256_or_si256(_mm256_sub_epi32(k32_, fx), _mm256_slli_epi32(fx, 8));
+        const __m256i wx2 = _mm256_or_si256(wx1, _mm256_slli_epi32(wx1, 16));
+        const __m256i fy1 = _mm256_slli_epi32(fy, 10);
+        const __m256i fy2 = _mm256_or_si256(fy1, _mm256_slli_epi32(fy1, 16));
+        __m256i top, bottom;
+        taps(_mm256_castsi256_si128(sx), _mm256_castsi256_si128(sy), top, bottom);
+        const __m256i a = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_a_),
+                                _mm256_permutevar8x32_epi32(fy2, pixels_a_));
+        taps(_mm256_extracti128_si256(sx, 1), _mm256_extracti128_si256(sy, 1), top, bottom);
+        const __m256i b = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_b_),
+                                _mm256_permutevar8x32_epi32(fy2, pixels_b_));
+        // a: pixels 0 1 | 2 3, b: 4 5 | 6 7 (16-bit) -> bytes 0 1 4 5 | 2 3 6 7 -> 0..7.
+        _mm256_storeu_si256(reinterpret_cast<__m256i *>(out), _mm256_permute4x64_epi64(_mm256_packus_epi16(a, b), 0xd8));
+    }
+
+private:
+    // Left tap and the one on (8 bytes) of four pixels, one per 64-bit lane, in the rows at
+    // sy and sy + 1 (sx, sy: the four pixels', inside the frame).
+    __attribute__((target("avx2"))) void taps(__m128i sx, __m128i sy, __m256i &top, __m256i &bottom) const
+    {
+        const int sx0 = _mm_cvtsi128_si32(sx), sy0 = _mm_cvtsi128_si32(sy);
+        const int sx3 = _mm_extract_epi32(sx, 3), sy3 = _mm_extract_epi32(sy, 3);
+        // Along a row the source moves monotonically: equal ends share a row, and
+        // sx0 <= sx3 makes sx0 the least.
+        if (sy0 == sy3 && sx3 >= sx0 && sx3 - sx0 <= 6 && sx0 + 8 <= src_.width) {
+            const std::uint8_t *row = src_.data + std::size_t(sy0) * src_.stride + std::size_t(sx0) * 4;
+            const __m256i d = _mm256_cvtepu32_epi64(_mm_sub_epi32(sx, _mm_set1_epi32(sx0)));
+            const __m256i idx = _mm256_or_si256(d, _mm256_slli_epi64(_mm256_add_epi64(d, one64_), 32));
+            top = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(row)), idx);
+            bottom = _mm256_permutevar8x32_epi32(
+                _mm256_loadu_si256(reinterpret_cast<const __m256i *>(row + src_.stride)), idx);
+        } else {
+            const __m128i offset = _mm_add_epi32(_mm_mullo_epi32(sy, stride_), _mm_slli_epi32(sx, 2));
+            top = _mm256_i32gather_epi64(base_, offset, 1);
+            bottom = _mm256_i32gather_epi64(base_, _mm_add_epi32(offset, stride_), 1);
+        }
+    }
+    // Four pixels' bytes (16-bit lanes) from their taps and weights: t and b the two rows'
+    // horizontal blends (x32, exact), then ((32 - fy) t + fy b + 512) >> 10 =
+    // (t + floor(fy (b - t) / 32) + 16) >> 5 (the same integer), the floor a mulhi of
+    // 2 (b - t) by fy << 10.
+    __attribute__((target("avx2"))) __m256i blend(__m256i top, __m256i bottom, __m256i wx, __m256i fy_scaled) const
+    {
+        const __m256i t = _mm256_maddubs_epi16(_mm256_shuffle_epi8(top, pair_bytes_), wx);
+        const __m256i b = _mm256_maddubs_epi16(_mm256_shuffle_epi8(bottom, pair_bytes_), wx);
+        const __m256i d = _mm256_sub_epi16(b, t);
+        const __m256i q = _mm256_mulhi_epi16(_mm256_add_epi16(d, d), fy_scaled);
+        return _mm256_srai_epi16(_mm256_add_epi16(_mm256_add_epi16(t, q), sixteen_), 5);
+    }
+
+    const PlaneSpan &src_;
+    bool replicate_;
+    const std::uint8_t *border_;
+    const long long *base_;
+    __m256i w2_, h2_, m31_, k32_, pair_bytes_, one64_, pixels_a_, pixels_b_, sixteen_;
+    __m128i stride_;
+};
+
+// Eight output pixels at a time (Cv4PixelsAvx2). Positions: m0 x 1024 and m3 x 1024 rounded
+// once per call into a table (as OpenCV's adelta, bdelta; the same double operations, so the
+// same roundings as the scalar code).
 __attribute__((target("avx2"))) void warpRowsCv4Avx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
                                                      int dst_width, int row_begin, int row_end,
                                                      const double plane_m[6], bool replicate,
@@ -1323,46 +1500,7 @@ __attribute__((target("avx2"))) void warpRowsCv4Avx2(const PlaneSpan &src, std::
     constexpr int kColumns = 2048;
     alignas(32) int adelta[kColumns], bdelta[kColumns];
     const __m256d m0 = _mm256_set1_pd(m[0]), m3 = _mm256_set1_pd(m[3]), scale = _mm256_set1_pd(1024.0);
-    const __m256i w2 = _mm256_set1_epi32(src.width - 2), h2 = _mm256_set1_epi32(src.height - 2);
-    const __m256i m31 = _mm256_set1_epi32(31), k32 = _mm256_set1_epi32(32);
-    const __m128i stride = _mm_set1_epi32(src.stride);
-    const __m256i pair_bytes = _mm256_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15, 0, 4, 1, 5, 2,
-                                                6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
-    const __m256i one64 = _mm256_set1_epi64x(1);
-    const __m256i pixels_a = _mm256_setr_epi32(0, 0, 1, 1, 2, 2, 3, 3), pixels_b = _mm256_setr_epi32(4, 4, 5, 5, 6, 6, 7, 7);
-    const long long *base = reinterpret_cast<const long long *>(src.data);
-    // Left tap and the one on (8 bytes) of four pixels, one per 64-bit lane, in the rows at
-    // sy and sy + 1 (sx, sy: the four pixels', inside the frame).
-    const auto taps = [&](__m128i sx, __m128i sy, __m256i &top, __m256i &bottom) __attribute__((target("avx2"))) {
-        const int sx0 = _mm_cvtsi128_si32(sx), sy0 = _mm_cvtsi128_si32(sy);
-        const int sx3 = _mm_extract_epi32(sx, 3), sy3 = _mm_extract_epi32(sy, 3);
-        // Along a row the source moves monotonically: equal ends share a row, and
-        // sx0 <= sx3 makes sx0 the least.
-        if (sy0 == sy3 && sx3 >= sx0 && sx3 - sx0 <= 6 && sx0 + 8 <= src.width) {
-            const std::uint8_t *row = src.data + std::size_t(sy0) * src.stride + std::size_t(sx0) * 4;
-            const __m256i d = _mm256_cvtepu32_epi64(_mm_sub_epi32(sx, _mm_set1_epi32(sx0)));
-            const __m256i idx = _mm256_or_si256(d, _mm256_slli_epi64(_mm256_add_epi64(d, one64), 32));
-            top = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(row)), idx);
-            bottom = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(row + src.stride)),
-                                                 idx);
-        } else {
-            const __m128i offset = _mm_add_epi32(_mm_mullo_epi32(sy, stride), _mm_slli_epi32(sx, 2));
-            top = _mm256_i32gather_epi64(base, offset, 1);
-            bottom = _mm256_i32gather_epi64(base, _mm_add_epi32(offset, stride), 1);
-        }
-    };
-    // Four pixels' bytes (16-bit lanes) from their taps and weights: t and b the two rows'
-    // horizontal blends (x32, exact), then ((32 - fy) t + fy b + 512) >> 10 =
-    // (t + floor(fy (b - t) / 32) + 16) >> 5 (the same integer), the floor a mulhi of
-    // 2 (b - t) by fy << 10.
-    const __m256i sixteen = _mm256_set1_epi16(16);
-    const auto blend = [&](__m256i top, __m256i bottom, __m256i wx, __m256i fy_scaled) __attribute__((target("avx2"))) {
-        const __m256i t = _mm256_maddubs_epi16(_mm256_shuffle_epi8(top, pair_bytes), wx);
-        const __m256i b = _mm256_maddubs_epi16(_mm256_shuffle_epi8(bottom, pair_bytes), wx);
-        const __m256i d = _mm256_sub_epi16(b, t);
-        const __m256i q = _mm256_mulhi_epi16(_mm256_add_epi16(d, d), fy_scaled);
-        return _mm256_srai_epi16(_mm256_add_epi16(_mm256_add_epi16(t, q), sixteen), 5);
-    };
+    const Cv4PixelsAvx2 pixels(src, replicate, border);
     for (int xb = 0; xb < dst_width; xb += kColumns) {
         const int xe = std::min(dst_width, xb + kColumns);
         // m0 x 1024 and m3 x 1024 rounded half to even (MXCSR's default mode, as cvRound), as
@@ -1385,35 +1523,7 @@ __attribute__((target("avx2"))) void warpRowsCv4Avx2(const PlaneSpan &src, std::
                     _mm256_add_epi32(X0v, _mm256_load_si256(reinterpret_cast<const __m256i *>(adelta + (x - xb)))), 5);
                 const __m256i Y = _mm256_srai_epi32(
                     _mm256_add_epi32(Y0v, _mm256_load_si256(reinterpret_cast<const __m256i *>(bdelta + (x - xb)))), 5);
-                const __m256i sx = _mm256_srai_epi32(X, 5), sy = _mm256_srai_epi32(Y, 5);
-                // Inside: 0 <= sx <= width - 2 and 0 <= sy <= height - 2 (unsigned compares).
-                const __m256i inside = _mm256_and_si256(_mm256_cmpeq_epi32(_mm256_min_epu32(sx, w2), sx),
-                                                        _mm256_cmpeq_epi32(_mm256_min_epu32(sy, h2), sy));
-                if (_mm256_movemask_epi8(inside) != -1) {
-                    alignas(32) int xv[8], yv[8];
-                    _mm256_store_si256(reinterpret_cast<__m256i *>(xv), X);
-                    _mm256_store_si256(reinterpret_cast<__m256i *>(yv), Y);
-                    for (int j = 0; j < 8; ++j)
-                        samplePixelCv4(src, xv[j], yv[j], replicate, border, out + 4 * (x + j));
-                    continue;
-                }
-                const __m256i fx = _mm256_and_si256(X, m31), fy = _mm256_and_si256(Y, m31);
-                // Horizontal weights (32 - fx, fx) as byte pairs and the vertical fy << 10, one
-                // pixel per 64-bit lane.
-                const __m256i wx1 = _mm256_or_si256(_mm256_sub_epi32(k32, fx), _mm256_slli_epi32(fx, 8));
-                const __m256i wx2 = _mm256_or_si256(wx1, _mm256_slli_epi32(wx1, 16));
-                const __m256i fy1 = _mm256_slli_epi32(fy, 10);
-                const __m256i fy2 = _mm256_or_si256(fy1, _mm256_slli_epi32(fy1, 16));
-                __m256i top, bottom;
-                taps(_mm256_castsi256_si128(sx), _mm256_castsi256_si128(sy), top, bottom);
-                const __m256i a = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_a),
-                                        _mm256_permutevar8x32_epi32(fy2, pixels_a));
-                taps(_mm256_extracti128_si256(sx, 1), _mm256_extracti128_si256(sy, 1), top, bottom);
-                const __m256i b = blend(top, bottom, _mm256_permutevar8x32_epi32(wx2, pixels_b),
-                                        _mm256_permutevar8x32_epi32(fy2, pixels_b));
-                // a: pixels 0 1 | 2 3, b: 4 5 | 6 7 (16-bit) -> bytes 0 1 4 5 | 2 3 6 7 -> 0..7.
-                _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + 4 * x),
-                                    _mm256_permute4x64_epi64(_mm256_packus_epi16(a, b), 0xd8));
+                pixels(X, Y, out + 4 * x);
             }
             for (; x < xe; ++x)
                 samplePixelCv4(src, (X0 + adelta[x - xb]) >> 5, (Y0 + bdelta[x - xb]) >> 5, replicate, border,
@@ -1458,6 +1568,8 @@ public:
     }
     void begin(int y) { mesh_.rowAt(y, x_.data(), y_.data()); }
     Point2 at(int x) const { return mesh_.alongRow(x_.data(), y_.data(), x); }
+    const double *x() const { return x_.data(); }
+    const double *y() const { return y_.data(); }
 
 private:
     const WarpMesh &mesh_;
@@ -1469,8 +1581,44 @@ bool meshFits(const WarpMesh &mesh, int dst_width, int row_end)
     return mesh.cell % kChunk == 0 && mesh.covers(std::max(dst_width, 1), std::max(row_end, 1));
 }
 
-// 3- or 4-byte pixels at the mesh's positions, rounded to 1/32 px as OpenCV's warpAffine
+// One 3- or 4-byte pixel at a mesh position s, rounded to 1/32 px as OpenCV's warpAffine
 // rounds its positions ((round(s * 1024) + 16) >> 5), weighted as samplePixelCv4.
+template <int Channels>
+inline void sampleMeshPixelCv(const PlaneSpan &src, Point2 s, bool replicate, const std::uint8_t *border,
+                              std::uint8_t *out)
+{
+    if (std::isnan(s.x) || std::isnan(s.y)) {
+        std::copy(border, border + Channels, out);
+        return;
+    }
+    // Far outside is as good as just outside (keeps the fixed point in range).
+    const int X = (cvRoundInt(std::clamp(s.x, -30000.0, 30000.0) * 1024) + 16) >> 5;
+    const int Y = (cvRoundInt(std::clamp(s.y, -30000.0, 30000.0) * 1024) + 16) >> 5;
+    if (Channels == 4) {
+        samplePixelCv4(src, X, Y, replicate, border, out);
+        return;
+    }
+    const int sx = X >> 5, sy = Y >> 5, fx = X & 31, fy = Y & 31;
+    const int w[4] = {(32 - fx) * (32 - fy), fx * (32 - fy), (32 - fx) * fy, fx * fy};
+    const std::uint8_t *tap[4];
+    for (int k = 0; k < 4; ++k) {
+        int tx = sx + (k & 1), ty = sy + (k >> 1);
+        if (tx >= 0 && ty >= 0 && tx < src.width && ty < src.height) {
+            tap[k] = src.data + std::size_t(ty) * src.stride + std::size_t(tx) * Channels;
+        } else if (replicate) {
+            tx = std::clamp(tx, 0, src.width - 1);
+            ty = std::clamp(ty, 0, src.height - 1);
+            tap[k] = src.data + std::size_t(ty) * src.stride + std::size_t(tx) * Channels;
+        } else {
+            tap[k] = border;
+        }
+    }
+    for (int c = 0; c < Channels; ++c) {
+        const int v = tap[0][c] * w[0] + tap[1][c] * w[1] + tap[2][c] * w[2] + tap[3][c] * w[3];
+        out[c] = std::uint8_t(std::min(255, (v + 512) >> 10));
+    }
+}
+
 template <int Channels>
 void warpMeshRowsCv(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                     int row_end, const WarpMesh &mesh, bool replicate, const std::uint8_t border[4])
@@ -1479,37 +1627,73 @@ void warpMeshRowsCv(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int
     for (int y = row_begin; y < row_end; ++y) {
         row.begin(y);
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
-        for (int x = 0; x < dst_width; ++x, out += Channels) {
-            const Point2 s = row.at(x);
-            if (std::isnan(s.x) || std::isnan(s.y)) {
-                std::copy(border, border + Channels, out);
-                continue;
-            }
-            // Far outside is as good as just outside (keeps the fixed point in range).
-            const int X = (cvRoundInt(std::clamp(s.x, -30000.0, 30000.0) * 1024) + 16) >> 5;
-            const int Y = (cvRoundInt(std::clamp(s.y, -30000.0, 30000.0) * 1024) + 16) >> 5;
-            const int sx = X >> 5, sy = Y >> 5, fx = X & 31, fy = Y & 31;
-            const int w[4] = {(32 - fx) * (32 - fy), fx * (32 - fy), (32 - fx) * fy, fx * fy};
-            const std::uint8_t *tap[4];
-            for (int k = 0; k < 4; ++k) {
-                int tx = sx + (k & 1), ty = sy + (k >> 1);
-                if (tx >= 0 && ty >= 0 && tx < src.width && ty < src.height) {
-                    tap[k] = src.data + std::size_t(ty) * src.stride + std::size_t(tx) * Channels;
-                } else if (replicate) {
-                    tx = std::clamp(tx, 0, src.width - 1);
-                    ty = std::clamp(ty, 0, src.height - 1);
-                    tap[k] = src.data + std::size_t(ty) * src.stride + std::size_t(tx) * Channels;
-                } else {
-                    tap[k] = border;
-                }
-            }
-            for (int c = 0; c < Channels; ++c) {
-                const int v = tap[0][c] * w[0] + tap[1][c] * w[1] + tap[2][c] * w[2] + tap[3][c] * w[3];
-                out[c] = std::uint8_t(std::min(255, (v + 512) >> 10));
-            }
-        }
+        for (int x = 0; x < dst_width; ++x)
+            sampleMeshPixelCv<Channels>(src, row.at(x), replicate, border, out + Channels * x);
     }
 }
+
+#ifdef UAVSTAB_HAVE_X86
+
+// warpMeshRowsCv<4> eight pixels at a time (Cv4PixelsAvx2): eight columns from a multiple of
+// 8 lie in one cell (a multiple of 16 wide), where alongRow's expressions, evaluated in
+// double vectors, give the same positions; cvtpd rounds half to even as cvRound. Groups
+// with a NaN position and the columns past the last group: per pixel.
+__attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
+                                                         int dst_width, int row_begin, int row_end,
+                                                         const WarpMesh &mesh, bool replicate,
+                                                         const std::uint8_t border[4])
+{
+    if (src.width < 2 || src.height < 2) {
+        warpMeshRowsCv<4>(src, dst, dst_stride, dst_width, row_begin, row_end, mesh, replicate, border);
+        return;
+    }
+    const Cv4PixelsAvx2 pixels(src, replicate, border);
+    MeshRow row(mesh);
+    const __m256d cell = _mm256_set1_pd(double(mesh.cell)), k1024 = _mm256_set1_pd(1024.0);
+    const __m256d low = _mm256_set1_pd(-30000.0), high = _mm256_set1_pd(30000.0);
+    const __m128i sixteen = _mm_set1_epi32(16);
+    // Clamped, x 1024, rounded, + 16: (round(s * 1024) + 16) of four pixels.
+    const auto fixed = [&](__m256d v) __attribute__((target("avx2"))) {
+        return _mm_add_epi32(_mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_min_pd(_mm256_max_pd(v, low), high), k1024)),
+                             sixteen);
+    };
+    for (int y = row_begin; y < row_end; ++y) {
+        row.begin(y);
+        const double *row_x = row.x(), *row_y = row.y();
+        std::uint8_t *out = dst + std::size_t(y) * dst_stride;
+        int x = 0;
+        for (; x + 8 <= dst_width; x += 8) {
+            const int i = x / mesh.cell;
+            const __m256d x_cell = _mm256_set1_pd(double(i) * mesh.cell);
+            const __m256d left_x = _mm256_set1_pd(row_x[i]), span_x = _mm256_set1_pd(row_x[i + 1] - row_x[i]);
+            const __m256d left_y = _mm256_set1_pd(row_y[i]), span_y = _mm256_set1_pd(row_y[i + 1] - row_y[i]);
+            const __m256d o0 = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(0, 1, 2, 3)));
+            const __m256d o1 = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(4, 5, 6, 7)));
+            const __m256d s0 = _mm256_div_pd(_mm256_sub_pd(o0, x_cell), cell);
+            const __m256d s1 = _mm256_div_pd(_mm256_sub_pd(o1, x_cell), cell);
+            const __m256d sx0 = _mm256_add_pd(left_x, _mm256_mul_pd(span_x, s0));
+            const __m256d sx1 = _mm256_add_pd(left_x, _mm256_mul_pd(span_x, s1));
+            const __m256d sy0 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s0));
+            const __m256d sy1 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s1));
+            const __m256d nan = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(sx0, sx0, _CMP_UNORD_Q),
+                                                          _mm256_cmp_pd(sx1, sx1, _CMP_UNORD_Q)),
+                                             _mm256_or_pd(_mm256_cmp_pd(sy0, sy0, _CMP_UNORD_Q),
+                                                          _mm256_cmp_pd(sy1, sy1, _CMP_UNORD_Q)));
+            if (_mm256_movemask_pd(nan) != 0) {
+                for (int j = 0; j < 8; ++j)
+                    sampleMeshPixelCv<4>(src, row.at(x + j), replicate, border, out + 4 * (x + j));
+                continue;
+            }
+            const __m256i X = _mm256_srai_epi32(_mm256_set_m128i(fixed(sx1), fixed(sx0)), 5);
+            const __m256i Y = _mm256_srai_epi32(_mm256_set_m128i(fixed(sy1), fixed(sy0)), 5);
+            pixels(X, Y, out + 4 * x);
+        }
+        for (; x < dst_width; ++x)
+            sampleMeshPixelCv<4>(src, row.at(x), replicate, border, out + 4 * x);
+    }
+}
+
+#endif // UAVSTAB_HAVE_X86
 
 template <bool Swap>
 void warpMeshRows16(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
@@ -1543,10 +1727,35 @@ bool warpPlaneBilinear16Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_st
 bool warpPlaneBilinear4Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                             int row_end, const WarpMesh &mesh, bool replicate, const std::uint8_t border[4])
 {
-    if (!mesh.covers(std::max(dst_width, 1), std::max(row_end, 1)) || src.width < 1 || src.height < 1)
+    return warpPlaneBilinear4Mesh(src, dst, dst_stride, dst_width, row_begin, row_end, mesh, replicate, border,
+                                  warpKernel() == WarpKernel::Avx2 ? WarpKernel::Avx2 : WarpKernel::Scalar);
+}
+
+bool warpPlaneBilinear4Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
+                            int row_end, const WarpMesh &mesh, bool replicate, const std::uint8_t border[4],
+                            WarpKernel kernel)
+{
+    if (!warpKernelAvailable(kernel) || !meshFits(mesh, dst_width, row_end) || src.width < 1 || src.height < 1)
         return false;
-    warpMeshRowsCv<4>(src, dst, dst_stride, dst_width, row_begin, row_end, mesh, replicate, border);
-    return true;
+    switch (kernel) {
+    case WarpKernel::Scalar:
+        warpMeshRowsCv<4>(src, dst, dst_stride, dst_width, row_begin, row_end, mesh, replicate, border);
+        return true;
+    case WarpKernel::Avx2:
+#ifdef UAVSTAB_HAVE_X86
+        // Its gathers take 32-bit byte offsets into the plane.
+        if (std::size_t(src.stride) * std::size_t(src.height) >= std::size_t(1) << 31)
+            warpMeshRowsCv<4>(src, dst, dst_stride, dst_width, row_begin, row_end, mesh, replicate, border);
+        else
+            warpMeshRowsCv4Avx2(src, dst, dst_stride, dst_width, row_begin, row_end, mesh, replicate, border);
+        return true;
+#else
+        return false;
+#endif
+    case WarpKernel::Simd128:
+        return false;
+    }
+    return false;
 }
 
 bool warpPlaneBilinear3Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
