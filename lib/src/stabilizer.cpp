@@ -405,13 +405,12 @@ void Stabilizer::planAndWarp(PlanJob &job)
             if (!lens_meshes_ || lens_meshes_->lens() != pending->lens)
                 lens_meshes_ = std::make_unique<LensMeshes>(pending->lens);
             const int width = pending->input.width, height = pending->input.height;
+            const std::array<double, 6> single = stats.output_to_input.pixelMatrix(width, height);
             if (pending->rows) {
                 const RowMatrices rows(*pending->rows, width, height);
-                pending->meshes = lens_meshes_->meshes(pending->input, stats.zoom,
-                                                       [&rows](double y) { return rows.at(y); });
+                pending->meshes = lens_meshes_->meshes(pending->input, stats.zoom, &rows, single);
             } else {
-                const std::array<double, 6> m = stats.output_to_input.pixelMatrix(width, height);
-                pending->meshes = lens_meshes_->meshes(pending->input, stats.zoom, [&m](double) { return m; });
+                pending->meshes = lens_meshes_->meshes(pending->input, stats.zoom, nullptr, single);
             }
         } catch (const std::exception &e) {
             std::lock_guard<std::mutex> lock(mutex_);

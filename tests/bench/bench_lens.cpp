@@ -223,7 +223,7 @@ void sectionCost(const Options &o)
                                                      width, height);
         LensMeshes meshes(lens);
         const std::array<double, 6> m = output_to_input.pixelMatrix(width, height);
-        (void)meshes.meshes(in.view(), zoom, [&m](double) { return m; });  // the per-stream part
+        (void)meshes.meshes(in.view(), zoom, nullptr, m);  // the per-stream part
         std::vector<double> plain_ms, lens_ms, mesh_ms, ratio;
         const FrameWarper warper;
         for (int r = 0; r < rounds; ++r) {
@@ -231,7 +231,7 @@ void sectionCost(const Options &o)
             warper.warp(in.view(), out.view(), output_to_input);
             const double plain = cpuSeconds(CLOCK_THREAD_CPUTIME_ID) - t;
             t = cpuSeconds(CLOCK_THREAD_CPUTIME_ID);
-            const std::vector<WarpMesh> planes = meshes.meshes(in.view(), zoom, [&m](double) { return m; });
+            const std::vector<WarpMesh> planes = meshes.meshes(in.view(), zoom, nullptr, m);
             const double mesh = cpuSeconds(CLOCK_THREAD_CPUTIME_ID) - t;
             warper.warp(in.view(), out.view(), planes);
             const double with = cpuSeconds(CLOCK_THREAD_CPUTIME_ID) - t;

@@ -1,30 +1,74 @@
 #include "render/lens_meshes.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include "render/frame_warper.hpp"
 
 namespace uavstab {
 
 namespace {
-constexpr int kCell = 16;  // output pixels between nodes (the kernels' chunk)
+
+// The kernels are fastest with a node every 16 px (their chunk).
+constexpr int kWarpCell = 16;
+
+// Output pixels between the nodes the chain is evaluated at. Interpolating the lens's chain
+// bilinearly errs by about cell^2 / width: the 150-degree fisheye of the tests
+// (tests/synthetic) with a typical correction, worst over the frame: 640x360 cell 16
+// 0.0034 px, 1920x1080 cell 16 0.0012, 32 0.0046, 48 0.0104. 16 * round(sqrt(width / 640))
+// keeps it below 0.005 px, far below the warp's 1/64-px positions, with a quarter of the
+// nodes (each a Newton solve once per stream and a distortion every frame) at 1080p; the
+// warp's 16-px mesh is then interpolated from them. A rectified output bends far more
+// between nodes (the lens's squeeze, at the pinhole view's edges): 0.030 px at 1080p with
+// 16, 0.119 with 32; it keeps 16.
+int chainCellFor(int width, LensOutput output)
+{
+    if (output == LensOutput::Rectified)
+        return kWarpCell;
+    return kWarpCell * std::max(1, int(std::lround(std::sqrt(width / 640.0))));
+}
+
+// The warp's 16-px mesh interpolated from a coarser one (as WarpMesh::at would, a row of
+// nodes at a time).
+WarpMesh refined(const WarpMesh &coarse, int width, int height)
+{
+    WarpMesh fine;
+    fine.cell = kWarpCell;
+    fine.columns = std::max(2, (width - 1 + kWarpCell - 1) / kWarpCell + 1);
+    fine.rows = std::max(2, (height - 1 + kWarpCell - 1) / kWarpCell + 1);
+    fine.x.resize(std::size_t(fine.columns) * std::size_t(fine.rows));
+    fine.y.resize(fine.x.size());
+    std::vector<double> row_x(std::size_t(coarse.columns)), row_y(std::size_t(coarse.columns));
+    for (int j = 0; j < fine.rows; ++j) {
+        coarse.rowAt(double(j) * kWarpCell, row_x.data(), row_y.data());
+        for (int i = 0; i < fine.columns; ++i) {
+            const Point2 p = coarse.alongRow(row_x.data(), row_y.data(), double(i) * kWarpCell);
+            const std::size_t k = std::size_t(j) * std::size_t(fine.columns) + std::size_t(i);
+            fine.x[k] = p.x;
+            fine.y[k] = p.y;
+        }
+    }
+    return fine;
+}
+
 } // namespace
 
 LensMeshes::LensMeshes(std::shared_ptr<const LensView> lens) : lens_(std::move(lens)) {}
 
-std::vector<WarpMesh> LensMeshes::meshes(const FrameView &frame, double zoom, const RowMatrix &row_matrix)
+std::vector<WarpMesh> LensMeshes::meshes(const FrameView &frame, double zoom, const RowMatrices *rows,
+                                         const std::array<double, 6> &single)
 {
     const int planes = frame.planeCount();
     if (zoom != zoom_ || frame.format != format_ || int(view_nodes_.size()) != planes) {
         view_nodes_.clear();
         for (int p = 0; p < planes; ++p) {
-            // planeMesh hands the nodes over in luma pixels and takes back plane pixels:
-            // the view's luma position goes in as a "plane" position and is read back below.
+            // planeMesh hands the nodes over in luma pixels and stores what comes back in
+            // the plane's pixels: taken back to luma pixels below.
             const PlaneLayout layout = planeLayout(frame.format, p);
             const double fx = layout.subsample_x, fy = layout.subsample_y;
             const double ox = (fx - 1) * 0.5, oy = (fy - 1) * 0.5;
-            WarpMesh nodes = FrameWarper::planeMesh(frame, p, [&](Point2 q) {
-                const Point2 v = lens_->outputToView(q, zoom);
-                return Point2{(v.x - ox) / fx, (v.y - oy) / fy};
-            }, kCell);
+            WarpMesh nodes = FrameWarper::planeMesh(
+                frame, p, [&](Point2 q) { return lens_->outputToView(q, zoom); }, chainCellFor(frame.width, lens_->output()));
             for (std::size_t k = 0; k < nodes.x.size(); ++k) {
                 nodes.x[k] = fx * nodes.x[k] + ox;
                 nodes.y[k] = fy * nodes.y[k] + oy;
@@ -51,22 +95,14 @@ std::vector<WarpMesh> LensMeshes::meshes(const FrameView &frame, double zoom, co
         const double ox = (fx - 1) * 0.5, oy = (fy - 1) * 0.5;
         const WarpMesh &nodes = view_nodes_[std::size_t(p)];
         WarpMesh mesh = nodes;
-        std::array<double, 6> m{};
-        double m_row = -1e300;
-        for (int j = 0; j < nodes.rows; ++j)
-            for (int i = 0; i < nodes.columns; ++i) {
-                const std::size_t k = std::size_t(j) * std::size_t(nodes.columns) + std::size_t(i);
-                const Point2 v{nodes.x[k], nodes.y[k]};
-                // The row's matrix where the node's view row lies (rolling shutter: per row).
-                if (v.y != m_row) {
-                    m = row_matrix(v.y);
-                    m_row = v.y;
-                }
-                const Point2 s = lens_->viewToInput(v, m);
-                mesh.x[k] = (s.x - ox) / fx;
-                mesh.y[k] = (s.y - oy) / fy;
-            }
-        out.push_back(std::move(mesh));
+        for (std::size_t k = 0; k < nodes.x.size(); ++k) {
+            const Point2 v{nodes.x[k], nodes.y[k]};
+            // Rolling shutter: the matrix of the row where the node lies in the view.
+            const Point2 s = lens_->viewToInput(v, rows ? rows->at(v.y) : single);
+            mesh.x[k] = (s.x - ox) / fx;
+            mesh.y[k] = (s.y - oy) / fy;
+        }
+        out.push_back(mesh.cell == kWarpCell ? std::move(mesh) : refined(mesh, frame.planeWidth(p), frame.planeHeight(p)));
     }
     return out;
 }
