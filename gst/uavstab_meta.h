@@ -77,7 +77,9 @@ typedef struct {
     GstMeta meta;
     guint32 version;      /* GST_UAV_STAB_META_VERSION of the plugin that attached it */
     gint64 index;         /* frames since the stream started or was flushed (the bus message's "index") */
-    gint frame_width;     /* the frame the element stabilized; the transforms below are in its pixels */
+    gint frame_width;     /* the frame the element stabilized; the transforms below are in its pixels
+                             (with lens-profile: in the lens's undistorted view, and with lens-output=original
+                             the output is that view seen back through the lens, zoomed by `zoom`) */
     gint frame_height;
     GstUavStabTransform motion;     /* raw inter-frame camera motion (this frame -> previous frame) */
     GstUavStabTransform trajectory; /* accumulated camera path (raw) */
