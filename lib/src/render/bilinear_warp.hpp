@@ -109,7 +109,9 @@ void warpPlaneBilinear16Rows(const PlaneSpan &src, std::uint8_t *dst, int dst_st
 // lane offsets come from the chunk's m0, m3 rounded to 2^-26 (the same as the matrix warp's
 // whenever they are multiples of 2^-16; else an offset may differ by 1/1024 px). Cost: the
 // chunk's matrix, offsets and plan are computed per chunk rather than per row: a 1080p I420
-// frame takes about 1.5 times the single-matrix warp (AVX2, one thread).
+// frame took 1.3 to 1.8 times the single-matrix warp's CPU time (AVX2, one thread, mild
+// barrel distortion; the higher ratio on an otherwise idle machine, where the single-matrix
+// warp is fastest). Most of the extra is the per-chunk lane offsets.
 bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                            int row_end, int channels, const WarpMesh &mesh, bool replicate,
                            const std::uint8_t border[4]);

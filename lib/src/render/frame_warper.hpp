@@ -42,8 +42,8 @@ public:
     // bilinear between nodes), one pass per plane. plane_meshes[p] is in plane p's pixels
     // and covers that plane (planeMesh builds them). Throws std::invalid_argument when there
     // is not one mesh per plane or a mesh does not cover its plane. Every pixel format:
-    // 8-bit luma and chroma planes through the kernels of warpPlaneBilinearMesh, 3- and
-    // 4-byte pixels and 16-bit samples per pixel (slower).
+    // 8-bit luma and chroma planes through warpPlaneBilinearMesh, 4-byte pixels through
+    // warpPlaneBilinear4Mesh, 3-byte pixels and 16-bit samples per pixel (slower).
     // (Templates only so that warp(in, out, {}) stays the identity Similarity: a braced list
     // deduces no Meshes.)
     template <class Meshes, std::enable_if_t<std::is_same_v<Meshes, std::vector<WarpMesh>>, int> = 0>
