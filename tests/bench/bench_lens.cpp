@@ -169,6 +169,8 @@ void sectionFlights(const Options &o)
     Table t({"lens", "strength", "delay", "pinhole twin px", "with the profile px", "profile / pinhole",
              "without the profile px", "coverage min (profile)", "zoom"});
     const std::string dir = o.out_dir;
+    double ratio_worst = 0.0, coverage_all = 1.0;
+    std::string worst_case;
     for (Lens lens : {Lens::Fisheye, Lens::Wide})
         for (double strength : strengths)
             for (int delay : delays) {
@@ -199,9 +201,16 @@ void sectionFlights(const Options &o)
                 t.row({lensName(lens), format("%.1fx", strength), std::to_string(delay), cell(pin, "%.3f"),
                        cell(with, "%.3f"), format("%.2fx", mean(ratio)) + format(" (%.2fx)", maxOf(ratio)),
                        cell(without, "%.3f"), format("%.4f", coverage), format("%.3f", zoom)});
-                putResult(o, format("lens_%d_x%.1f_d%d_ratio_worst", int(lens), strength, delay), maxOf(ratio));
+                if (maxOf(ratio) > ratio_worst) {
+                    ratio_worst = maxOf(ratio);
+                    worst_case = format("%s, %.1fx, delay %d", lensName(lens), strength, delay);
+                }
+                coverage_all = std::min(coverage_all, coverage);
             }
     frag.table(t);
+    putResult(o, "lens.flights.ratio_worst", ratio_worst);
+    putResultText(o, "lens.flights.ratio_worst_case", worst_case);
+    putResult(o, "lens.flights.coverage_min", coverage_all);
 }
 
 // One thread: the warp alone (the mesh built per frame included) with and without a lens, alternated.
@@ -244,7 +253,9 @@ void sectionCost(const Options &o)
                          "fisheye (of which the meshes %.2f ms): %.2fx (median of the per-round ratios)",
                          formatName(pixel_format), width, height, rounds, median(plain_ms), median(lens_ms),
                          median(mesh_ms), median(ratio)));
-        putResult(o, format("lens_cost_%s_ratio", formatName(pixel_format)), median(ratio));
+        putResult(o, format("lens.cost.%s.ratio", formatName(pixel_format)), median(ratio));
+        putResult(o, format("lens.cost.%s.plain_ms", formatName(pixel_format)), median(plain_ms));
+        putResult(o, format("lens.cost.%s.lens_ms", formatName(pixel_format)), median(lens_ms));
     }
 }
 

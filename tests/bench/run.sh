@@ -2,12 +2,12 @@
 # The benchmark of uavstabilize: throughput, latency, memory and quality of the library and
 # the GStreamer element, beside ffmpeg's deshake and vid.stab on the same frames.
 #
-#   bash tests/bench/run.sh            # full run (~65 min on 2 cores, quality ~20 of it, rolling shutter ~10, streams ~12); updates tests/bench/REPORT.md + PNGs
+#   bash tests/bench/run.sh            # full run (~65 min on 2 cores, quality ~20 of it, rolling shutter ~10, lens ~5, streams ~12); updates tests/bench/REPORT.md + PNGs
 #   bash tests/bench/run.sh --quick    # fewer runs/resolutions/clips (~5-8 min); report in the out dir only
 #
 # Options: --out DIR (default build-bench/bench-out), --no-wait (do not wait for a quiet
 # machine), --no-build (use the build dir as it is), --only PROGRAM (speed, element, memory,
-# quality, path, rs, streams, profile; repeatable; the report is still assembled from whatever the out dir holds,
+# quality, path, rs, lens, streams, profile; repeatable; the report is still assembled from whatever the out dir holds,
 # under the header of the run that made it, with a line saying what was re-run),
 # --base REV (the commit streams.sh and profile.sh measure this tree against, default c0aeebc,
 # the element with the window planners alone; "none": this tree alone).
@@ -132,6 +132,10 @@ fi
 if wants rs; then
   step "rolling shutter"
   "$bin/uavstab-bench-rolling-shutter" --out "$out" --data "$data" "${quick[@]}"
+fi
+if wants lens; then
+  step "lens profiles"
+  "$bin/uavstab-bench-lens" --out "$out" "${quick[@]}"
 fi
 base_args=()
 [[ $base == none ]] || base_args=(--base "$base")
