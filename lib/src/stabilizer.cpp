@@ -349,19 +349,15 @@ namespace {
 // the output would still read outside the picture.
 void keepInsideThroughLens(const LensView &lens, FrameStats &stats)
 {
-    const Similarity unzoom{0.0, 0.0, 0.0, 1.0 / stats.zoom};
-    auto mapping = [&](double t) { return scaleCorrection(stats.correction, t).inverse() * unzoom; };
-    if (lens.coversFrame(stats.output_to_input, stats.zoom))
+    const std::vector<Point2> edge = lens.edgeInView(stats.zoom);
+    if (lens.coversFrame(stats.output_to_input, edge))
         return;
-    constexpr int kBisectionSteps = 14;
-    double lo = 0.0, hi = 1.0;
-    for (int i = 0; i < kBisectionSteps; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (lens.coversFrame(mapping(mid), stats.zoom) ? lo : hi) = mid;
-    }
-    stats.correction = scaleCorrection(stats.correction, lo);
-    stats.output_to_input = stats.correction.inverse() * unzoom;
-    stats.correction_fraction *= lo;
+    const double share = largestCoveredShare(stats.correction, stats.zoom, [&](const Similarity &output_to_input) {
+        return lens.coversFrame(output_to_input, edge);
+    });
+    stats.correction = scaleCorrection(stats.correction, share);
+    stats.output_to_input = stats.correction.inverse() * Similarity{0.0, 0.0, 0.0, 1.0 / stats.zoom};
+    stats.correction_fraction *= share;
 }
 
 } // namespace

@@ -39,17 +39,26 @@ Point2 LensView::viewToInput(Point2 v, const std::array<double, 6> &m) const
     return lens_.distort({m[0] * v.x + m[1] * v.y + m[2], m[3] * v.x + m[4] * v.y + m[5]});
 }
 
-bool LensView::coversFrame(const Similarity &output_to_input, double zoom) const
+std::vector<Point2> LensView::edgeInView(double zoom) const
+{
+    const double w1 = width_ - 1.0, h1 = height_ - 1.0;
+    std::vector<Point2> edge;
+    edge.reserve(4 * (kEdgeSamples + 1));
+    for (int i = 0; i <= kEdgeSamples; ++i) {
+        const double t = double(i) / kEdgeSamples;
+        for (const Point2 q : {Point2{t * w1, 0.0}, Point2{t * w1, h1}, Point2{0.0, t * h1}, Point2{w1, t * h1}})
+            edge.push_back(outputToView(q, zoom));
+    }
+    return edge;
+}
+
+bool LensView::coversFrame(const Similarity &output_to_input, const std::vector<Point2> &edge_in_view) const
 {
     const std::array<double, 6> m = output_to_input.pixelMatrix(width_, height_);
     const double w1 = width_ - 1.0, h1 = height_ - 1.0;
-    auto inside = [&](double x, double y) {
-        const Point2 p = viewToInput(outputToView({x, y}, zoom), m);
-        return p.x >= -kTolerance && p.y >= -kTolerance && p.x <= w1 + kTolerance && p.y <= h1 + kTolerance;
-    };
-    for (int i = 0; i <= kEdgeSamples; ++i) {
-        const double t = double(i) / kEdgeSamples;
-        if (!inside(t * w1, 0.0) || !inside(t * w1, h1) || !inside(0.0, t * h1) || !inside(w1, t * h1))
+    for (const Point2 &v : edge_in_view) {
+        const Point2 p = viewToInput(v, m);
+        if (!(p.x >= -kTolerance && p.y >= -kTolerance && p.x <= w1 + kTolerance && p.y <= h1 + kTolerance))
             return false;
     }
     return true;

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <array>
+#include <vector>
 
 #include "uavstab/config.hpp"
 #include "uavstab/lens.hpp"
@@ -43,10 +44,13 @@ public:
     // frame at that row (Similarity::pixelMatrix, RowMatrices::at): input pixel.
     Point2 viewToInput(Point2 view_px, const std::array<double, 6> &output_to_input) const;
 
-    // Whether every output pixel reads from inside the input picture (the frame's edges
-    // sampled, output_to_input as one transform: the rolling-shutter rows aside, as
-    // coversFrame).
-    bool coversFrame(const Similarity &output_to_input, double zoom) const;
+    // The output frame's edges, sampled, where they are undistorted (outputToView): for
+    // coversFrame, computed once for a frame's tests (each sample is a Newton solve).
+    std::vector<Point2> edgeInView(double zoom) const;
+    // Whether every output pixel reads from inside the input picture (the edges of
+    // edgeInView checked, output_to_input as one transform: the rolling-shutter rows aside,
+    // as path/framing.hpp's coversFrame).
+    bool coversFrame(const Similarity &output_to_input, const std::vector<Point2> &edge_in_view) const;
 
 private:
     LensModel lens_;

@@ -45,15 +45,24 @@ Framing frameOutput(const Similarity &correction, int width, int height, double 
         return f;
 
     // Largest share of the correction whose output is still all picture.
+    f.fraction = largestCoveredShare(correction, f.zoom, [&](const Similarity &output_to_input) {
+        return coversFrame(output_to_input, width, height);
+    });
+    f.applied = scaleCorrection(correction, f.fraction);
+    f.output_to_input = mapping(f.applied);
+    return f;
+}
+
+double largestCoveredShare(const Similarity &correction, double zoom,
+                           const std::function<bool(const Similarity &output_to_input)> &covers)
+{
+    const Similarity unzoom{0.0, 0.0, 0.0, 1.0 / zoom};
     double lo = 0.0, hi = 1.0;
     for (int i = 0; i < kBisectionSteps; ++i) {
         const double mid = 0.5 * (lo + hi);
-        (coversFrame(mapping(scaleCorrection(correction, mid)), width, height) ? lo : hi) = mid;
+        (covers(scaleCorrection(correction, mid).inverse() * unzoom) ? lo : hi) = mid;
     }
-    f.fraction = lo;
-    f.applied = scaleCorrection(correction, lo);
-    f.output_to_input = mapping(f.applied);
-    return f;
+    return lo;
 }
 
 CropWindow::CropWindow(int width, int height, double zoom)

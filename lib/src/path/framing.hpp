@@ -2,6 +2,8 @@
 // when the correction would still show border, a shrunk correction that does not.
 #pragma once
 
+#include <functional>
+
 #include "uavstab/similarity.hpp"
 
 namespace uavstab {
@@ -25,6 +27,12 @@ Similarity scaleCorrection(const Similarity &c, double t);
 bool coversFrame(const Similarity &output_to_input, int width, int height);
 
 Framing frameOutput(const Similarity &correction, int width, int height, double crop, bool limit_to_crop);
+
+// The largest share t of `correction` (scaleCorrection) whose output_to_input,
+// scaleCorrection(correction, t)^-1 * zoom^-1, `covers` accepts, found by bisection to
+// 1/16384 (0 when none); frameOutput with coversFrame, the lens's framing with its own test.
+double largestCoveredShare(const Similarity &correction, double zoom,
+                           const std::function<bool(const Similarity &output_to_input)> &covers);
 
 // How far the crop window may move inside the frame. The window is the output frame's
 // footprint in the input frame: half size (hx, hy) / zoom about the centre, where

@@ -11,6 +11,7 @@
 
 #include "buffer_slot.hpp"
 #include "lens/lens_view.hpp"
+#include "path/framing.hpp"
 #include "lens_profile_file.hpp"
 #include "shaky_flight.hpp"
 #include "uavstab/lens.hpp"
@@ -232,4 +233,29 @@ TEST(LensStabilizer, ARollingShutterFisheyeFlightComesOutWhole)
     }
     EXPECT_EQ(frames, flight.frameCount());
     EXPECT_GT(bent, flight.frameCount() / 2);  // a known readout time: corrected throughout
+}
+
+// Framing through the lens: the still output is covered, a shift past the crop room is not,
+// and the largest share of it that is covered leaves the output inside the picture.
+TEST(LensStabilizer, ACorrectionIsShrunkUntilTheLensedOutputIsCovered)
+{
+    const int w = 640, h = 360;
+    const double zoom = 1.0 / 0.92;
+    const Similarity unzoom{0.0, 0.0, 0.0, 1.0 / zoom};
+    for (LensOutput output : {LensOutput::Original, LensOutput::Rectified}) {
+        const LensView view(synthetic::fisheyeLens(w, h), output, w, h);
+        const std::vector<Point2> edge = view.edgeInView(zoom);
+        EXPECT_TRUE(view.coversFrame(unzoom, edge));
+        // Far past the crop room: in the pinhole view a fisheye's edges are stretched, so the
+        // room there is several times the picture's 4 %.
+        const Similarity correction{600.0, -250.0, 0.05, 1.0};
+        EXPECT_FALSE(view.coversFrame(correction.inverse() * unzoom, edge));
+        const double share = largestCoveredShare(correction, zoom, [&](const Similarity &output_to_input) {
+            return view.coversFrame(output_to_input, edge);
+        });
+        EXPECT_GT(share, 0.05);
+        EXPECT_LT(share, 1.0);
+        EXPECT_TRUE(view.coversFrame(scaleCorrection(correction, share).inverse() * unzoom, edge));
+        EXPECT_FALSE(view.coversFrame(scaleCorrection(correction, std::min(1.0, share + 0.01)).inverse() * unzoom, edge));
+    }
 }
