@@ -68,6 +68,7 @@ struct FeatureTracker::Impl {
     Scratch scratch[kShareWorkLanes];
     ShareWork share;
     int track_age = 0;
+    int detection_bands = 1;
     bool has_previous = false;
     int frame_width = 0, frame_height = 0;
     cv::Size analysis;
@@ -170,8 +171,24 @@ void FeatureTracker::Impl::detect(const LucasKanadePyramid &pyramid)
         if (cv::countNonZero(mask) == 0)
             return;
     }
-    detectGoodCorners(image(region), tracks, config.max_corners, kQualityLevel, std::clamp(spacing, 2.0, 30.0),
-                      mask);
+    if (detection_bands <= 1 || region.height < 3 * detection_bands) {
+        detectGoodCorners(image(region), tracks, config.max_corners, kQualityLevel, std::clamp(spacing, 2.0, 30.0),
+                          mask);
+    } else {
+        const int per_band = (config.max_corners + detection_bands - 1) / detection_bands;
+        std::vector<cv::Point2f> found;
+        for (int b = 0; b < detection_bands; ++b) {
+            const int y0 = region.height * b / detection_bands, y1 = region.height * (b + 1) / detection_bands;
+            const cv::Rect band(0, y0, region.width, y1 - y0);
+            const cv::Mat band_mask = mask.empty() ? cv::Mat() : mask(band);
+            if (!band_mask.empty() && cv::countNonZero(band_mask) == 0)
+                continue;
+            detectGoodCorners(image(region)(band), found, per_band, kQualityLevel, std::clamp(spacing, 2.0, 30.0),
+                              band_mask);
+            for (const cv::Point2f &p : found)
+                tracks.push_back({p.x, p.y + float(y0)});
+        }
+    }
     const float scale = float(1 << level), offset = 0.5f * (scale - 1.0f);  // level pixel -> level 0
     for (auto &p : tracks) {
         p.x = (p.x + float(region.x)) * scale + offset;
@@ -342,6 +359,11 @@ PointMatches FeatureTracker::track(const FrameView &frame)
     d.has_previous = true;
     std::swap(d.previous_pyramid, d.current_pyramid);
     return matches;
+}
+
+void FeatureTracker::setDetectionBands(int bands)
+{
+    impl_->detection_bands = std::max(1, bands);
 }
 
 void FeatureTracker::setShareWork(ShareWork share)

@@ -46,6 +46,11 @@ public:
     // detected afresh there (outside the excluded regions as they are now): for when most
     // of the last result's tracks turned out to sit on a screen-fixed overlay.
     PointMatches retrack();
+    // Corners are detected in this many horizontal bands of the region (1, the default:
+    // the whole region at once), each with its share of max_corners and its own quality
+    // threshold, so that no band of rows is left without tracks where the picture is
+    // fainter there than elsewhere. Applies from the next detection.
+    void setDetectionBands(int bands);
     // Where the luma's downscale and the tracking may share their work (unset, the
     // default: all of it on the caller's thread).
     void setShareWork(ShareWork share);

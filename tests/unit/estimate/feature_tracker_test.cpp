@@ -177,6 +177,43 @@ TEST(FeatureTracker, RedetectsOnScheduleAndKeepsAboutMaxCorners)
     EXPECT_EQ(redetected, (std::vector<int>{1, 6, 11}));
 }
 
+TEST(FeatureTracker, DetectionBandsLeaveNoBandOfRowsWithoutCorners)
+{
+    // The flight's picture with the lower half's contrast cut to a tenth: detected at once,
+    // the corners gather in the upper half; in bands, each band gets its share.
+    synthetic::FlightOptions options;
+    options.frames = 2;
+    const synthetic::ShakyFlight flight(options);
+    auto faintBelow = [](FrameBuffer frame) {
+        for (int y = frame.height() / 2; y < frame.height(); ++y) {
+            std::uint8_t *row = frame.row(0, y);
+            for (int x = 0; x < frame.width(); ++x)
+                row[x] = std::uint8_t(128 + (int(row[x]) - 128) / 10);
+        }
+        return frame;
+    };
+    auto cornersBelow = [&](int bands) {
+        StabilizerConfig config;
+        config.roi = 0.95;
+        config.max_corners = 100;
+        FeatureTracker tracker(config);
+        tracker.setDetectionBands(bands);
+        const FrameBuffer first = faintBelow(flight.render(0)), second = faintBelow(flight.render(1));
+        tracker.track(first.view());
+        const PointMatches m = tracker.track(second.view());
+        EXPECT_TRUE(m.redetected);
+        EXPECT_LE(m.detected, config.max_corners + bands);
+        int below = 0;
+        for (const Point2 &p : m.previous)
+            below += p.y > 0.0 ? 1 : 0;  // centred coordinates: the lower half
+        return std::pair<int, int>{below, m.detected};
+    };
+    const auto [below_at_once, detected_at_once] = cornersBelow(1);
+    const auto [below_in_bands, detected_in_bands] = cornersBelow(12);
+    EXPECT_LT(below_at_once, detected_at_once / 5) << "the faint half should lose out without bands";
+    EXPECT_GT(below_in_bands, detected_in_bands / 3);
+}
+
 TEST(FeatureTracker, UniformAndNoiseFramesGiveNoMatches)
 {
     StabilizerConfig config;
