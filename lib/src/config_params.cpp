@@ -114,8 +114,9 @@ std::vector<ConfigParam> makeTable()
                   &excludeText, &setExcludeText, &checkExclude),
         flag<&C::exclude_static>("exclude_static", "Exclude static",
                                  "Find screen-fixed overlays automatically: tracks that stay put while the rest of "
-                                 "the picture moves are not used, and no corners are detected where they keep "
-                                 "showing up (for a while)"),
+                                 "the picture moves are not used, no corners are detected where they keep "
+                                 "showing up (for a while), and strokes that stay the same while the camera moves "
+                                 "are painted over before tracking"),
         param<&C::rolling_shutter>("rolling_shutter", "Rolling shutter",
                                    "auto: where the footage shows a rolling shutter's wobble (jello: a CMOS sensor "
                                    "reads its rows one after another while the camera vibrates), every row is put "

@@ -117,7 +117,8 @@ struct StabilizerConfig {
     std::vector<RectF> exclude;
     // Find such overlays by themselves: tracks that stay put while the others agree the
     // camera moved are dropped from the fit, and where they keep showing up no corners
-    // are detected for a while (lib/src/screen_fixed.hpp). On by default: on seven real
+    // are detected for a while (lib/src/estimate/screen_fixed.hpp); the overlay's strokes
+    // are painted over in the luma the tracker sees (overlay_strokes.hpp). On by default: on seven real
     // clips it changes the output's ITF by at most 0.006 dB, and it keeps a burned-in OSD
     // from pinning the estimate (tests/unit/exclude_test.cpp).
     bool exclude_static = true;

@@ -8,6 +8,7 @@
 #include "estimate/corner_detector.hpp"
 #include "estimate/lucas_kanade.hpp"
 #include "estimate/luma_extractor.hpp"
+#include "estimate/overlay_strokes.hpp"
 
 namespace uavstab {
 
@@ -50,6 +51,8 @@ struct FeatureTracker::Impl {
     StabilizerConfig config;
     std::vector<RectF> auto_exclude;
     LumaExtractor luma;
+    OverlayStrokes overlay;
+    cv::Mat painted;  // the luma with an overlay painted over
     LucasKanadePyramid previous_pyramid, current_pyramid;
     std::vector<cv::Point2f> tracks;  // positions in the previous frame, analysis pixels
     std::vector<cv::Point2f> forward;
@@ -344,9 +347,11 @@ PointMatches FeatureTracker::track(const FrameView &frame)
         d.frame_height = frame.height;
         d.analysis = LumaExtractor::analysisSize(frame.width, frame.height, d.config.analysis_width);
         d.lk = lkGeometry(d.analysis, d.config.tracking_window);
+        d.overlay.reset();
     }
 
-    const cv::Mat &luma = d.luma.extract(frame, d.config.analysis_width);
+    const cv::Mat &extracted = d.luma.extract(frame, d.config.analysis_width);
+    const cv::Mat &luma = d.config.exclude_static ? d.overlay.paint(extracted, d.painted) : extracted;
     // The pyramid is built once per frame and serves the forward track into this frame
     // and, next frame, the backward check and the track out of it. It copies the luma,
     // so the caller's frame need not outlive this call.
@@ -364,6 +369,17 @@ PointMatches FeatureTracker::track(const FrameView &frame)
 void FeatureTracker::setDetectionBands(int bands)
 {
     impl_->detection_bands = std::max(1, bands);
+}
+
+void FeatureTracker::cameraMoved(const Similarity &current_to_previous)
+{
+    if (impl_->config.exclude_static && impl_->frame_width > 0)
+        impl_->overlay.cameraMoved(current_to_previous, double(impl_->frame_width) / impl_->analysis.width);
+}
+
+void FeatureTracker::motionUnknown()
+{
+    impl_->overlay.motionUnknown();
 }
 
 void FeatureTracker::setShareWork(ShareWork share)

@@ -51,6 +51,12 @@ public:
     // threshold, so that no band of rows is left without tracks where the picture is
     // fainter there than elsewhere. Applies from the next detection.
     void setDetectionBands(int bands);
+    // The camera's motion into the last frame track() saw, as the estimator fitted it
+    // (full-resolution px), or that it could not: with config.exclude_static, an
+    // overlay's pixels are found from it (overlay_strokes.hpp) and painted over before
+    // tracking.
+    void cameraMoved(const Similarity &current_to_previous);
+    void motionUnknown();
     // Where the luma's downscale and the tracking may share their work (unset, the
     // default: all of it on the caller's thread).
     void setShareWork(ShareWork share);

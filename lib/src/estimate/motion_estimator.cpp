@@ -192,6 +192,7 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
     }
     if (result.points < config_.min_points) {
         result.skipped = true;
+        tracker_.motionUnknown();
         result.lost = matches.detected >= config_.min_points;
         return result;
     }
@@ -279,9 +280,11 @@ MotionEstimate MotionEstimator::estimate(const FrameView &frame)
         result.row_motion = {};
         rolling_shutter_.reset();
         last_rows_ = {};
+        tracker_.motionUnknown();
         return result;
     }
     result.motion = fit.motion;
+    tracker_.cameraMoved(fit.motion);
     return result;
 }
 

@@ -1,0 +1,146 @@
+#include "estimate/overlay_strokes.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+namespace uavstab {
+
+namespace {
+
+constexpr std::size_t kSamples = 6;  // frames compared
+constexpr double kSampleSpacing = 6.0;  // analysis px the camera moves between samples
+// The samples' positions must spread this far (analysis px, RMS) across their main direction
+// too: along a straight pan, a scene's edges parallel to it stay the same.
+constexpr double kMinCrossSpread = 3.0;
+constexpr int kStillRange = 10;   // luma levels a pixel may vary over the samples and still be "the same"
+constexpr int kStandOut = 12;     // luma levels from its neighbourhood's mean (7x7) to be a stroke
+constexpr int kGrow = 2;          // px the mask is grown by (a stroke's soft edge)
+constexpr double kPaintSigma = 3.0;  // px: the neighbourhood a painted pixel takes its value from
+
+} // namespace
+
+void OverlayStrokes::reset()
+{
+    samples_.clear();
+    position_ = {0.0, 0.0};
+    pending_.release();
+    mask_.release();
+}
+
+void OverlayStrokes::motionUnknown()
+{
+    samples_.clear();  // the next positions cannot be related to theirs
+    position_ = {0.0, 0.0};
+}
+
+void OverlayStrokes::cameraMoved(const Similarity &current_to_previous, double scale)
+{
+    position_.x += current_to_previous.dx / scale;
+    position_.y += current_to_previous.dy / scale;
+    if (pending_.empty())
+        return;
+    if (!samples_.empty()) {
+        const Point2 &last = samples_.back().position;
+        if (std::hypot(position_.x - last.x, position_.y - last.y) < kSampleSpacing)
+            return;
+        if (samples_.back().luma.size() != pending_.size())
+            samples_.clear();
+    }
+    if (samples_.size() == kSamples) {
+        // The oldest sample's buffer takes the new one.
+        Sample oldest = std::move(samples_.front());
+        samples_.erase(samples_.begin());
+        cv::swap(oldest.luma, pending_);
+        oldest.position = position_;
+        samples_.push_back(std::move(oldest));
+    } else {
+        samples_.push_back({pending_.clone(), position_});
+    }
+    rebuildMask();
+}
+
+bool OverlayStrokes::samplesSpreadInTwoDirections() const
+{
+    if (samples_.size() < kSamples)
+        return false;
+    double mx = 0, my = 0;
+    for (const Sample &s : samples_) {
+        mx += s.position.x;
+        my += s.position.y;
+    }
+    mx /= double(samples_.size());
+    my /= double(samples_.size());
+    double xx = 0, xy = 0, yy = 0;
+    for (const Sample &s : samples_) {
+        const double dx = s.position.x - mx, dy = s.position.y - my;
+        xx += dx * dx;
+        xy += dx * dy;
+        yy += dy * dy;
+    }
+    xx /= double(samples_.size());
+    xy /= double(samples_.size());
+    yy /= double(samples_.size());
+    // The smaller eigenvalue of the positions' covariance: the spread across the main direction.
+    const double half_trace = 0.5 * (xx + yy);
+    const double minor = half_trace - std::sqrt(std::max(0.0, half_trace * half_trace - (xx * yy - xy * xy)));
+    return minor >= kMinCrossSpread * kMinCrossSpread;
+}
+
+void OverlayStrokes::rebuildMask()
+{
+    // A mask is only rebuilt from samples it can trust; until then the last one holds
+    // (an overlay does not leave the frame because the camera pans).
+    if (!samplesSpreadInTwoDirections())
+        return;
+    const cv::Mat &newest = samples_.back().luma;
+    newest.copyTo(low_);
+    newest.copyTo(high_);
+    for (std::size_t i = 0; i + 1 < samples_.size(); ++i) {
+        cv::min(low_, samples_[i].luma, low_);
+        cv::max(high_, samples_[i].luma, high_);
+    }
+    cv::Mat range, still, neighbourhood, stand_out;
+    cv::subtract(high_, low_, range);
+    cv::compare(range, kStillRange, still, cv::CMP_LE);
+    cv::blur(newest, neighbourhood, cv::Size(7, 7));
+    cv::absdiff(newest, neighbourhood, stand_out);
+    cv::compare(stand_out, kStandOut, stand_out, cv::CMP_GE);
+    cv::bitwise_and(still, stand_out, mask_);
+    if (cv::countNonZero(mask_) == 0) {
+        mask_.release();
+        return;
+    }
+    cv::dilate(mask_, mask_, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * kGrow + 1, 2 * kGrow + 1)));
+}
+
+const cv::Mat &OverlayStrokes::paint(const cv::Mat &luma, cv::Mat &painted)
+{
+    luma.copyTo(pending_);
+    if (mask_.empty() || mask_.size() != luma.size())
+        return luma;
+    // Each overlay pixel takes the mean of the scene around it (a normalised convolution:
+    // the blur of the scene's pixels over the blur of their weights).
+    const cv::Rect box = cv::boundingRect(mask_);
+    const int margin = int(std::ceil(3.0 * kPaintSigma));
+    const cv::Rect area = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
+                          cv::Rect(0, 0, luma.cols, luma.rows);
+    const cv::Mat mask = mask_(area);
+    cv::Mat scene;
+    cv::bitwise_not(mask, scene);
+    scene.convertTo(weight_, CV_32F, 1.0 / 255.0);
+    luma(area).convertTo(blurred_, CV_32F);
+    cv::multiply(blurred_, weight_, blurred_);
+    cv::GaussianBlur(blurred_, blurred_, cv::Size(0, 0), kPaintSigma);
+    cv::GaussianBlur(weight_, blurred_weight_, cv::Size(0, 0), kPaintSigma);
+    cv::max(blurred_weight_, 1e-3f, blurred_weight_);
+    cv::divide(blurred_, blurred_weight_, blurred_);
+    luma.copyTo(painted);
+    cv::Mat fill;
+    blurred_.convertTo(fill, CV_8U);
+    fill.copyTo(painted(area), mask);
+    return painted;
+}
+
+} // namespace uavstab
