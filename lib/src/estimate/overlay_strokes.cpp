@@ -17,7 +17,7 @@ constexpr double kMinCrossSpread = 3.0;
 constexpr int kStillRange = 10;   // luma levels a pixel may vary over the samples and still be "the same"
 constexpr int kStandOut = 12;     // luma levels from its neighbourhood's mean (7x7) to be a stroke
 constexpr int kGrow = 2;          // px the mask is grown by (a stroke's soft edge)
-constexpr double kPaintSigma = 3.0;  // px: the neighbourhood a painted pixel takes its value from
+constexpr int kPaintRadius = 8;  // px: the neighbourhood a painted pixel takes its value from
 
 } // namespace
 
@@ -123,7 +123,7 @@ const cv::Mat &OverlayStrokes::paint(const cv::Mat &luma, cv::Mat &painted)
     // Each overlay pixel takes the mean of the scene around it (a normalised convolution:
     // the blur of the scene's pixels over the blur of their weights).
     const cv::Rect box = cv::boundingRect(mask_);
-    const int margin = int(std::ceil(3.0 * kPaintSigma));
+    const int margin = kPaintRadius;
     const cv::Rect area = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
                           cv::Rect(0, 0, luma.cols, luma.rows);
     const cv::Mat mask = mask_(area);
@@ -132,8 +132,9 @@ const cv::Mat &OverlayStrokes::paint(const cv::Mat &luma, cv::Mat &painted)
     scene.convertTo(weight_, CV_32F, 1.0 / 255.0);
     luma(area).convertTo(blurred_, CV_32F);
     cv::multiply(blurred_, weight_, blurred_);
-    cv::GaussianBlur(blurred_, blurred_, cv::Size(0, 0), kPaintSigma);
-    cv::GaussianBlur(weight_, blurred_weight_, cv::Size(0, 0), kPaintSigma);
+    const cv::Size window(2 * kPaintRadius + 1, 2 * kPaintRadius + 1);
+    cv::boxFilter(blurred_, blurred_, -1, window);
+    cv::boxFilter(weight_, blurred_weight_, -1, window);
     cv::max(blurred_weight_, 1e-3f, blurred_weight_);
     cv::divide(blurred_, blurred_weight_, blurred_);
     luma.copyTo(painted);
