@@ -926,7 +926,6 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
                                                       const std::uint8_t border[4])
 {
     constexpr int channels = C;
-    constexpr int H = 8 / C;
     Avx2Lanes lanes;
     lanes.channel = _mm256_load_si256(reinterpret_cast<const __m256i *>(chunks.layout().channel));
     lanes.high_mask = _mm256_sub_epi16(
@@ -935,7 +934,6 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
     lanes.one = _mm256_set1_epi16(kOne);
     lanes.next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
     const std::size_t stride = std::size_t(src.stride);
-    Avx2RowSteps row_steps[C] = {};
     // chunkOffset for the 16 lanes of vector v in 16-bit lanes: with |step| = h 2^16 + l,
     // (j |step| + 2^15) >> 16 = j h + (j l + 2^15) >> 16, and (j l + 2^15) >> 16 =
     // ((2 j l >> 16) + 1) >> 1 (a floor of a floor), 2 j l >> 16 an unsigned mulhi.
@@ -955,13 +953,19 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
             _mm256_add_epi16(_mm256_mulhi_epu16(pixel2[v], _mm256_set1_epi16(std::int16_t(a & 0xffff))), one16), 1);
         return _mm256_sign_epi16(_mm256_add_epi16(high, low), _mm256_set1_epi16(std::int16_t(step < 0 ? -1 : 1)));
     };
+    const auto offsetsUnsigned = [&](int v, int step) __attribute__((target("avx2"))) {
+        const __m256i high = _mm256_mullo_epi16(pixel[v], _mm256_set1_epi16(std::int16_t(step >> 16)));
+        const __m256i low = _mm256_srli_epi16(
+            _mm256_add_epi16(_mm256_mulhi_epu16(pixel2[v], _mm256_set1_epi16(std::int16_t(step & 0xffff))), one16), 1);
+        return _mm256_add_epi16(high, low);
+    };
+    // Byte shuffle control: each 128-bit half's first 16-bit lane in all its lanes.
+    const __m256i first_lane = _mm256_set1_epi16(0x0100);
     const int chunks_in_row = dst_width / kChunk;
     RowPlan plan;
     for (int y = row_begin; y < row_end; ++y) {
         chunks.beginRowAvx2(y, chunks_in_row);
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
-        bool have_steps = false;
-        int steps_x = 0, steps_y = 0;  // the steps row_steps holds
         for (int first = 0; first < chunks_in_row; first += kPlanChunks) {
             const int count = std::min(kPlanChunks, chunks_in_row - first);
             planMeshChunksAvx2(src, channels, chunks, plan, first, count);
@@ -974,21 +978,20 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
                     samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
                     continue;
                 }
+                // The chunk's lane offsets, recomputed for every chunk (in a mesh of 16-px
+                // cells the steps seldom repeat, and a test that they did cost more than it
+                // saved). The windows start at each half's first lane (0 and 8 / C * C = 8),
+                // lane 0 of vector 0 being pixel 0, offset 0.
                 const int step_x = chunks.stepX(k), step_y = chunks.stepY(k);
-                if (!(have_steps && step_x == steps_x && step_y == steps_y)) {
-                    for (int v = 0; v < C; ++v) {
-                        row_steps[v].window_lo = chunkOffset(step_x, lanePixel(C, v, 0));
-                        row_steps[v].window_hi = chunkOffset(step_x, lanePixel(C, v, H * channels));
-                        row_steps[v].offset_x = offsets(v, step_x);
-                        row_steps[v].offset_y = offsets(v, step_y);
-                        row_steps[v].window =
-                            _mm256_blendv_epi8(_mm256_set1_epi16(std::int16_t(row_steps[v].window_lo)),
-                                               _mm256_set1_epi16(std::int16_t(row_steps[v].window_hi)),
-                                               lanes.high_mask);
-                    }
-                    have_steps = true;
-                    steps_x = step_x;
-                    steps_y = step_y;
+                Avx2RowSteps row_steps[C];
+                for (int v = 0; v < C; ++v) {
+                    // step_x >= 0 (a chunk is taken only when m0 > 0): no sign to apply.
+                    row_steps[v].offset_x = offsetsUnsigned(v, step_x);
+                    row_steps[v].offset_y = offsets(v, step_y);
+                    row_steps[v].window = _mm256_shuffle_epi8(row_steps[v].offset_x, first_lane);
+                    row_steps[v].window_lo =
+                        v == 0 ? 0 : std::int16_t(_mm256_extract_epi16(row_steps[v].offset_x, 0));
+                    row_steps[v].window_hi = std::int16_t(_mm256_extract_epi16(row_steps[v].offset_x, 8));
                 }
                 __m256i vectors[C];
                 for (int v = 0; v < C; ++v)
