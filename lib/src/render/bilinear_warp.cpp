@@ -527,7 +527,7 @@ struct Avx2RowSteps {
 // (planChunk's ix0, iy0, frx, fry and the last pixel's row step ky_last): each 128-bit half
 // reads one 16-byte window per source row it crosses, and a byte shuffle picks the taps.
 template <int C>
-__attribute__((target("avx2"))) inline __m256i chunkVectorAvx2(const std::uint8_t *src_data, std::size_t stride,
+__attribute__((target("avx2"), always_inline)) inline __m256i chunkVectorAvx2(const std::uint8_t *src_data, std::size_t stride,
                                                                const Avx2Lanes &lanes, const Avx2RowSteps &steps,
                                                                int ix0, int iy0, int frx, int fry, int ky_last)
 {
@@ -982,21 +982,32 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
                 // cells the steps seldom repeat, and a test that they did cost more than it
                 // saved). The windows start at each half's first lane (0 and 8 / C * C = 8),
                 // lane 0 of vector 0 being pixel 0, offset 0.
-                const int step_x = chunks.stepX(k), step_y = chunks.stepY(k);
-                Avx2RowSteps row_steps[C];
-                for (int v = 0; v < C; ++v) {
+                const auto chunkSteps = [&](int k, int v) __attribute__((target("avx2"), always_inline)) {
+                    Avx2RowSteps steps;
                     // step_x >= 0 (a chunk is taken only when m0 > 0): no sign to apply.
-                    row_steps[v].offset_x = offsetsUnsigned(v, step_x);
-                    row_steps[v].offset_y = offsets(v, step_y);
-                    row_steps[v].window = _mm256_shuffle_epi8(row_steps[v].offset_x, first_lane);
-                    row_steps[v].window_lo =
-                        v == 0 ? 0 : std::int16_t(_mm256_extract_epi16(row_steps[v].offset_x, 0));
-                    row_steps[v].window_hi = std::int16_t(_mm256_extract_epi16(row_steps[v].offset_x, 8));
+                    steps.offset_x = offsetsUnsigned(v, chunks.stepX(k));
+                    steps.offset_y = offsets(v, chunks.stepY(k));
+                    steps.window = _mm256_shuffle_epi8(steps.offset_x, first_lane);
+                    steps.window_lo = v == 0 ? 0 : std::int16_t(_mm256_extract_epi16(steps.offset_x, 0));
+                    steps.window_hi = std::int16_t(_mm256_extract_epi16(steps.offset_x, 8));
+                    return steps;
+                };
+                if (C == 1 && c + 2 <= count && (plan.vector_ok[c] & plan.vector_ok[c + 1])) {
+                    // Two chunks' vectors packed into one 32-byte store.
+                    const __m256i a = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(k, 0), plan.ix0[c],
+                                                         plan.iy0[c], plan.frx[c], plan.fry[c], plan.ky_last[c]);
+                    const __m256i b = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(k + 1, 0),
+                                                         plan.ix0[c + 1], plan.iy0[c + 1], plan.frx[c + 1],
+                                                         plan.fry[c + 1], plan.ky_last[c + 1]);
+                    _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + x),
+                                        _mm256_permute4x64_epi64(_mm256_packus_epi16(a, b), 0xD8));
+                    ++c;
+                    continue;
                 }
                 __m256i vectors[C];
                 for (int v = 0; v < C; ++v)
-                    vectors[v] = chunkVectorAvx2<C>(src.data, stride, lanes, row_steps[v], plan.ix0[c], plan.iy0[c],
-                                                    plan.frx[c], plan.fry[c], plan.ky_last[c]);
+                    vectors[v] = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(k, v), plan.ix0[c],
+                                                    plan.iy0[c], plan.frx[c], plan.fry[c], plan.ky_last[c]);
                 const __m256i packed =
                     _mm256_permute4x64_epi64(_mm256_packus_epi16(vectors[0], vectors[C - 1]), 0xD8);
                 if (C == 2)
