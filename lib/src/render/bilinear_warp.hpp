@@ -109,9 +109,11 @@ void warpPlaneBilinear16Rows(const PlaneSpan &src, std::uint8_t *dst, int dst_st
 // lane offsets come from the chunk's m0, m3 rounded to 2^-26 (the same as the matrix warp's
 // whenever they are multiples of 2^-16; else an offset may differ by 1/1024 px). Cost: the
 // chunk's matrix, offsets and plan are computed per chunk rather than per row: a 1080p I420
-// frame took 1.3 to 1.8 times the single-matrix warp's CPU time (AVX2, one thread, mild
-// barrel distortion; the higher ratio on an otherwise idle machine, where the single-matrix
-// warp is fastest). Most of the extra is the per-chunk lane offsets.
+// frame (mild barrel distortion, 16-px cells; AVX2, one thread, quiet machine) takes about
+// 3.0 ms of CPU time against the single-matrix warp's 1.6 ms (x1.8; NV12 likewise; the
+// ratio is lower on a loaded machine). By profile about half of the extra is building each
+// row's per-chunk matrices and steps (WarpMesh::rowAt and the AVX2 row set-up), the rest
+// the per-chunk plan and lane offsets.
 bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                            int row_end, int channels, const WarpMesh &mesh, bool replicate,
                            const std::uint8_t border[4]);
