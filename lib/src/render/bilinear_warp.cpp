@@ -203,10 +203,17 @@ constexpr int lanePixel(int channels, int v, int l)
     return v * (16 / channels) + l / channels;
 }
 
+// Whether the window trick takes a chunk of this matrix (warpPlaneBilinearHandles' bounds,
+// which also keep the offsets and steps in 16 bits).
+inline bool chunkStepsOk(double m0, double m3)
+{
+    return m0 > 0.0 && m0 <= 1.25 && std::abs(m3) * (kChunk - 1) <= 0.9;
+}
+
 class MatrixPerChunk {
 public:
     MatrixPerChunk(const WarpMesh &mesh, int channels, bool window_fits, int chunks_in_row)
-        // The row's nodes with room for beginRowAvx2's groups of 4 chunks (5 nodes).
+        // The row's nodes with room for the AVX2 planner's groups of 4 chunks (5 nodes).
         : mesh_(mesh), row_x_(std::size_t(std::max(mesh.columns, chunks_in_row + 5)), 0.0),
           row_y_(row_x_.size(), 0.0), steps_(laneSteps(kIdentity, channels)), channels_(channels),
           window_fits_(window_fits)
@@ -219,48 +226,53 @@ public:
             v->assign(n, 0);
     }
     const WarpMesh &mesh() const { return mesh_; }
+    int channels() const { return channels_; }
+    bool windowFits() const { return window_fits_; }
 
     // Every chunk's matrix of output row y (chunk c at columns [16 c, 16 c + 16)), and for
-    // those the window trick takes (warpPlaneBilinearHandles' bounds, which also keep the
-    // offsets in 16 bits) its steps.
-    // (Inlined, so that the AVX2 kernel gets it vectorised.)
-    __attribute__((always_inline)) void beginRow(int y, int chunks_in_row)
+    // those the window trick takes (chunkStepsOk) its steps.
+    void beginRow(int y, int chunks_in_row)
     {
         mesh_.rowAt(y, row_x_.data(), row_y_.data());
-        if (mesh_.cell == kChunk) {
-            beginRowOf<kChunk>(chunks_in_row);
-            return;
-        }
         const int per_cell = mesh_.cell / kChunk;
         for (int c = 0, cell = 0, in_cell = 0; c < chunks_in_row; ++c) {
-            setChunk(c, cell, mesh_.cell);
+            setChunk(c, cell);
             if (++in_cell == per_cell) {
                 in_cell = 0;
                 ++cell;
             }
         }
     }
-    // One cell per chunk, the cell a constant (its division a multiplication when exact).
-    template <int Cell>
-    __attribute__((always_inline)) void beginRowOf(int chunks_in_row)
+    // Chunk c's matrix from cell `cell`'s nodes in the row (m1 = m4 = 0).
+    void chunkMatrix(int cell, double m[6]) const
     {
-        for (int c = 0; c < chunks_in_row; ++c)
-            setChunk(c, c, Cell);
-    }
-    // Chunk c's entries from cell `cell`'s nodes (what beginRow computes).
-    __attribute__((always_inline)) void setChunk(int c, int cell, int cell_size)
-    {
+        const int cell_size = mesh_.cell;
         const double x_a = double(cell) * cell_size;
         const double ax = row_x_[std::size_t(cell)], bx = row_x_[std::size_t(cell) + 1];
         const double ay = row_y_[std::size_t(cell)], by = row_y_[std::size_t(cell) + 1];
-        const double m0 = (bx - ax) / cell_size, m3 = (by - ay) / cell_size;
-        m0_[std::size_t(c)] = m0;
-        m2_[std::size_t(c)] = ax - m0 * x_a;
-        m3_[std::size_t(c)] = m3;
-        m5_[std::size_t(c)] = ay - m3 * x_a;
-        const bool ok = window_fits_ && m0 > 0.0 && m0 <= 1.25 && std::abs(m3) * (kChunk - 1) <= 0.9;
+        // A 16-px cell's division as a multiplication (the same doubles).
+        const double inv_cell = cell_size == kChunk ? 1.0 / kChunk : 0.0;
+        const double m0 = inv_cell != 0.0 ? (bx - ax) * inv_cell : (bx - ax) / cell_size;
+        const double m3 = inv_cell != 0.0 ? (by - ay) * inv_cell : (by - ay) / cell_size;
+        m[0] = m0;
+        m[1] = 0.0;
+        m[2] = ax - m0 * x_a;
+        m[3] = m3;
+        m[4] = 0.0;
+        m[5] = ay - m3 * x_a;
+    }
+    // Chunk c's entries from cell `cell`'s nodes (what beginRow computes).
+    void setChunk(int c, int cell)
+    {
+        double m[6];
+        chunkMatrix(cell, m);
+        m0_[std::size_t(c)] = m[0];
+        m2_[std::size_t(c)] = m[2];
+        m3_[std::size_t(c)] = m[3];
+        m5_[std::size_t(c)] = m[5];
+        const bool ok = window_fits_ && chunkStepsOk(m[0], m[3]);
         vector_ok_[std::size_t(c)] = ok;
-        const int step_x = ok ? fixedStep(m0) : 0, step_y = ok ? fixedStep(m3) : 0;
+        const int step_x = ok ? fixedStep(m[0]) : 0, step_y = ok ? fixedStep(m[3]) : 0;
         step_x_[std::size_t(c)] = step_x;
         step_y_[std::size_t(c)] = step_y;
         last_window_[std::size_t(c)] = chunkOffset(step_x, lanePixel(channels_, channels_ - 1, 8));
@@ -304,15 +316,19 @@ public:
     // The lane layout (channel, half), the same for every chunk.
     const LaneSteps &layout() const { return steps_; }
 #ifdef UAVSTAB_HAVE_X86
-    // beginRow, four chunks at a time in double vectors for one-chunk cells: the same
-    // operations, so the same entries.
-    void beginRowAvx2(int y, int chunks_in_row);
+    // Only the row's node positions (rowAt's doubles), for the AVX2 planner of one-chunk
+    // cells, which derives each chunk's entries itself.
+    void beginRowNodesAvx2(int y);
 #endif
-    // The row's arrays, for the AVX2 planner.
+    // The row's node positions and arrays, for the AVX2 planners.
+    const double *rowX() const { return row_x_.data(); }
+    const double *rowY() const { return row_y_.data(); }
     const double *m0() const { return m0_.data(); }
     const double *m2() const { return m2_.data(); }
     const double *m3() const { return m3_.data(); }
     const double *m5() const { return m5_.data(); }
+    const int *stepsX() const { return step_x_.data(); }
+    const int *stepsY() const { return step_y_.data(); }
     const int *lastWindows() const { return last_window_.data(); }
     const int *lastOffsetsY() const { return last_offset_y_.data(); }
     const int *vectorOks() const { return vector_ok_.data(); }
@@ -361,6 +377,9 @@ struct RowPlan {
     alignas(32) int fry[kPlanChunks + 4];
     alignas(32) int ky_last[kPlanChunks + 4];
     alignas(32) int vector_ok[kPlanChunks + 4];  // -1: a vector kernel takes the chunk
+    // The mesh warp's: the chunk's steps (MatrixPerChunk::stepX, stepY).
+    alignas(32) int step_x[kPlanChunks + 4];
+    alignas(32) int step_y[kPlanChunks + 4];
 };
 
 // The chunks [lo, hi) of row y that pass every one of planChunk's tests (all taps inside,
@@ -803,122 +822,165 @@ void warpMeshRowsScalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
 
 #ifdef UAVSTAB_HAVE_X86
 
-__attribute__((target("avx2"))) void MatrixPerChunk::beginRowAvx2(int y, int chunks_in_row)
+__attribute__((target("avx2"))) void MatrixPerChunk::beginRowNodesAvx2(int y)
 {
-    if (mesh_.cell != kChunk) {
-        beginRow(y, chunks_in_row);
-        return;
+    int j;
+    double t;
+    mesh_.rowCell(y, j, t);
+    const std::size_t columns = std::size_t(mesh_.columns);
+    const double *top_x = mesh_.x.data() + std::size_t(j) * columns, *top_y = mesh_.y.data() + std::size_t(j) * columns;
+    const double *bottom_x = top_x + columns, *bottom_y = top_y + columns;
+    const __m256d tv = _mm256_set1_pd(t);
+    std::size_t i = 0;
+    // rowAt's expressions.
+    for (; i + 4 <= columns; i += 4) {
+        const __m256d tx = _mm256_loadu_pd(top_x + i), ty = _mm256_loadu_pd(top_y + i);
+        _mm256_storeu_pd(row_x_.data() + i, _mm256_add_pd(tx, _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(bottom_x + i), tx), tv)));
+        _mm256_storeu_pd(row_y_.data() + i, _mm256_add_pd(ty, _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(bottom_y + i), ty), tv)));
     }
-    mesh_.rowAt(y, row_x_.data(), row_y_.data());
-    const __m256d inv_cell = _mm256_set1_pd(1.0 / kChunk);  // exact: as the division
-    const __m256d zero = _mm256_setzero_pd(), max_m0 = _mm256_set1_pd(1.25), max_slope = _mm256_set1_pd(0.9);
-    const __m256d last = _mm256_set1_pd(double(kChunk - 1)), sign_bit = _mm256_set1_pd(-0.0);
-    const __m256d scale = _mm256_set1_pd(double(1 << kStepBits)), half = _mm256_set1_pd(0.5);
-    const __m256d minus_half = _mm256_set1_pd(-0.5);
-    const __m128i fits = _mm_set1_epi32(window_fits_ ? -1 : 0);
-    const __m128i round = _mm_set1_epi32(1 << 15);
-    const __m128i window_pixel = _mm_set1_epi32(lanePixel(channels_, channels_ - 1, 8));
-    const __m128i last_pixel = _mm_set1_epi32(lanePixel(channels_, channels_ - 1, 15));
-    const __m256i low_halves = _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0);
-    // A double mask's lanes as 32-bit ones.
-    const auto mask32 = [&](__m256d mask) __attribute__((target("avx2"))) {
-        return _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(mask), low_halves));
-    };
-    const auto fixedSteps = [&](__m256d m) __attribute__((target("avx2"))) {
-        const __m256d v = _mm256_mul_pd(m, scale);
-        const __m128i i = _mm256_cvttpd_epi32(v);
-        const __m256d f = _mm256_sub_pd(v, _mm256_cvtepi32_pd(i));
-        // i + (f >= 0.5) - (f <= -0.5): a true mask is -1.
-        return _mm_add_epi32(_mm_sub_epi32(i, mask32(_mm256_cmp_pd(f, half, _CMP_GE_OQ))),
-                             mask32(_mm256_cmp_pd(f, minus_half, _CMP_LE_OQ)));
-    };
-    const auto offsets = [&](__m128i step, __m128i pixel) __attribute__((target("avx2"))) {
-        const __m128i r = _mm_srli_epi32(_mm_add_epi32(_mm_mullo_epi32(pixel, _mm_abs_epi32(step)), round), 16);
-        return _mm_sign_epi32(r, step);
-    };
-    for (int c = 0; c < chunks_in_row; c += 4) {
-        const __m256d x_a = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(c * kChunk), _mm_setr_epi32(0, 16, 32, 48)));
-        const __m256d ax = _mm256_loadu_pd(row_x_.data() + c), bx = _mm256_loadu_pd(row_x_.data() + c + 1);
-        const __m256d ay = _mm256_loadu_pd(row_y_.data() + c), by = _mm256_loadu_pd(row_y_.data() + c + 1);
-        const __m256d m0 = _mm256_mul_pd(_mm256_sub_pd(bx, ax), inv_cell);
-        const __m256d m3 = _mm256_mul_pd(_mm256_sub_pd(by, ay), inv_cell);
-        _mm256_storeu_pd(m0_.data() + c, m0);
-        _mm256_storeu_pd(m2_.data() + c, _mm256_sub_pd(ax, _mm256_mul_pd(m0, x_a)));
-        _mm256_storeu_pd(m3_.data() + c, m3);
-        _mm256_storeu_pd(m5_.data() + c, _mm256_sub_pd(ay, _mm256_mul_pd(m3, x_a)));
-        const __m256d slope = _mm256_mul_pd(_mm256_andnot_pd(sign_bit, m3), last);
-        const __m256d ok_d = _mm256_and_pd(
-            _mm256_and_pd(_mm256_cmp_pd(m0, zero, _CMP_GT_OQ), _mm256_cmp_pd(m0, max_m0, _CMP_LE_OQ)),
-            _mm256_cmp_pd(slope, max_slope, _CMP_LE_OQ));
-        const __m128i ok = _mm_and_si128(fits, mask32(ok_d));
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(vector_ok_.data() + c), _mm_and_si128(ok, _mm_set1_epi32(1)));
-        const __m128i step_x = _mm_and_si128(ok, fixedSteps(m0)), step_y = _mm_and_si128(ok, fixedSteps(m3));
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(step_x_.data() + c), step_x);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(step_y_.data() + c), step_y);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(last_window_.data() + c), offsets(step_x, window_pixel));
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(last_offset_y_.data() + c), offsets(step_y, last_pixel));
+    for (; i < columns; ++i) {
+        row_x_[i] = top_x[i] + (bottom_x[i] - top_x[i]) * t;
+        row_y_[i] = top_y[i] + (bottom_y[i] - top_y[i]) * t;
     }
 }
 
-// planChunk for chunks [0, chunks) of a mesh row, four at a time, each with its own matrix
-// (m1 = m4 = 0) and lane offsets: the operations of planChunksAvx2<false>, lane by lane the
-// same as planChunk's, so the same decisions. A chunk the window trick does not take
-// (vector_ok 0) is refused whatever its plan.
-__attribute__((target("avx2"))) inline void planMeshChunksAvx2(const PlaneSpan &src, int channels,
-                                                               const MatrixPerChunk &chunks, RowPlan &plan, int first,
-                                                               int count)
+// A double mask's four 64-bit lanes as 32-bit ones.
+__attribute__((target("avx2"))) inline __m128i mask32(__m256d mask)
 {
-    const __m256d zero = _mm256_setzero_pd(), last = _mm256_set1_pd(double(kChunk - 1));
+    return _mm256_castsi256_si128(
+        _mm256_permutevar8x32_epi32(_mm256_castpd_si256(mask), _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0)));
+}
+
+// fixedStep of four doubles already times 2^26.
+__attribute__((target("avx2"))) inline __m128i fixedSteps(__m256d v)
+{
+    const __m128i i = _mm256_cvttpd_epi32(v);
+    const __m256d f = _mm256_sub_pd(v, _mm256_cvtepi32_pd(i));
+    // i + (f >= 0.5) - (f <= -0.5): a true mask is -1.
+    return _mm_add_epi32(_mm_sub_epi32(i, mask32(_mm256_cmp_pd(f, _mm256_set1_pd(0.5), _CMP_GE_OQ))),
+                         mask32(_mm256_cmp_pd(f, _mm256_set1_pd(-0.5), _CMP_LE_OQ)));
+}
+
+// chunkOffset of four steps for pixel j.
+__attribute__((target("avx2"))) inline __m128i chunkOffsets(__m128i step, int j)
+{
+    const __m128i r = _mm_srli_epi32(
+        _mm_add_epi32(_mm_mullo_epi32(_mm_set1_epi32(j), _mm_abs_epi32(step)), _mm_set1_epi32(1 << 15)), 16);
+    return _mm_sign_epi32(r, step);
+}
+
+// planChunk's tests of four chunks (the operations of planChunksAvx2<false>, lane by lane
+// the same as planChunk's) from their first pixels' positions, their last pixels' offsets
+// from them and their steps' lane offsets, into plan entries [at, at + 4). `taken`: the
+// chunks the window trick takes at all (else refused whatever their plan).
+__attribute__((target("avx2"), always_inline)) inline void planMeshFour(const PlaneSpan &src, int channels,
+                                                                       __m256d sx0, __m256d sy0, __m256d last_x,
+                                                                       __m256d last_y, __m128i last_window,
+                                                                       __m128i last_offset_y, __m128i taken,
+                                                                       RowPlan &plan, int at)
+{
+    const __m256d zero = _mm256_setzero_pd();
     const __m256d width1 = _mm256_set1_pd(double(src.width - 1)), height1 = _mm256_set1_pd(double(src.height - 1));
     const __m256d k1024 = _mm256_set1_pd(1024.0);
     const __m128i fraction = _mm_set1_epi32(1023);
     const __m128i row_bytes = _mm_set1_epi32(src.width * channels - 16);
     const __m128i height = _mm_set1_epi32(src.height), one = _mm_set1_epi32(1), zero_i = _mm_setzero_si128();
+    const __m128i qx = _mm256_cvttpd_epi32(_mm256_mul_pd(sx0, k1024));
+    const __m128i qy = _mm256_cvttpd_epi32(_mm256_mul_pd(sy0, k1024));
+    const __m128i ix0 = _mm_srai_epi32(qx, 10), iy0 = _mm_srai_epi32(qy, 10);
+    const __m128i frx = _mm_and_si128(qx, fraction), fry = _mm_and_si128(qy, fraction);
+    const __m128i ky_last = _mm_srai_epi32(_mm_add_epi32(fry, last_offset_y), 10);
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ix0 + at), ix0);
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.iy0 + at), iy0);
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.frx + at), frx);
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.fry + at), fry);
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ky_last + at), ky_last);
+    const __m256d sx1 = _mm256_add_pd(sx0, last_x), sy1 = _mm256_add_pd(sy0, last_y);
+    const __m256d inside = _mm256_and_pd(
+        _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sx0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sx1, zero, _CMP_GE_OQ)),
+                      _mm256_and_pd(_mm256_cmp_pd(sx0, width1, _CMP_LT_OQ), _mm256_cmp_pd(sx1, width1, _CMP_LT_OQ))),
+        _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sy0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sy1, zero, _CMP_GE_OQ)),
+                      _mm256_and_pd(_mm256_cmp_pd(sy0, height1, _CMP_LT_OQ), _mm256_cmp_pd(sy1, height1, _CMP_LT_OQ))));
+    const __m128i ky_min = _mm_min_epi32(zero_i, ky_last), ky_max = _mm_max_epi32(zero_i, ky_last);
+    const __m128i window_end =
+        _mm_mullo_epi32(_mm_add_epi32(ix0, _mm_srai_epi32(_mm_add_epi32(frx, last_window), 10)),
+                        _mm_set1_epi32(channels));
+    const __m128i refused = _mm_or_si128(
+        _mm_or_si128(_mm_cmpgt_epi32(window_end, row_bytes), _mm_cmpgt_epi32(_mm_sub_epi32(ky_max, ky_min), one)),
+        _mm_or_si128(_mm_cmpgt_epi32(_mm_add_epi32(_mm_add_epi32(iy0, ky_max), one), _mm_sub_epi32(height, one)),
+                     _mm_cmpgt_epi32(zero_i, _mm_add_epi32(iy0, ky_min))));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.vector_ok + at),
+                     _mm_and_si128(taken, _mm_andnot_si128(refused, mask32(inside))));
+}
+
+// The plan of chunks [first, first + count) of a mesh row in one-chunk cells, four at a
+// time, from the row's nodes (beginRowNodesAvx2): each chunk's matrix, steps and tests in
+// the operations of MatrixPerChunk::setChunk and planChunk, so the same entries and
+// decisions (m1 = m4 = 0: planChunk's m1 y adds zero, as here).
+template <int C>
+__attribute__((target("avx2"))) inline void planMeshRowAvx2(const PlaneSpan &src, const MatrixPerChunk &chunks,
+                                                            RowPlan &plan, int first, int count)
+{
+    const __m256d inv_cell = _mm256_set1_pd(1.0 / kChunk);  // exact: as the division
+    const __m256d zero = _mm256_setzero_pd(), max_m0 = _mm256_set1_pd(1.25), max_slope = _mm256_set1_pd(0.9);
+    const __m256d last = _mm256_set1_pd(double(kChunk - 1)), sign_bit = _mm256_set1_pd(-0.0);
+    const __m256d scale = _mm256_set1_pd(double(1 << kStepBits));
+    const __m128i fits = _mm_set1_epi32(chunks.windowFits() ? -1 : 0);
+    const double *row_x = chunks.rowX(), *row_y = chunks.rowY();
+    for (int c = 0; c < count; c += 4) {
+        const int k = first + c;
+        const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(k * kChunk), _mm_setr_epi32(0, 16, 32, 48)));
+        const __m256d ax = _mm256_loadu_pd(row_x + k), bx = _mm256_loadu_pd(row_x + k + 1);
+        const __m256d ay = _mm256_loadu_pd(row_y + k), by = _mm256_loadu_pd(row_y + k + 1);
+        const __m256d m0 = _mm256_mul_pd(_mm256_sub_pd(bx, ax), inv_cell);
+        const __m256d m3 = _mm256_mul_pd(_mm256_sub_pd(by, ay), inv_cell);
+        const __m256d m2 = _mm256_sub_pd(ax, _mm256_mul_pd(m0, xs)), m5 = _mm256_sub_pd(ay, _mm256_mul_pd(m3, xs));
+        const __m256d slope = _mm256_mul_pd(_mm256_andnot_pd(sign_bit, m3), last);
+        const __m256d ok_d = _mm256_and_pd(
+            _mm256_and_pd(_mm256_cmp_pd(m0, zero, _CMP_GT_OQ), _mm256_cmp_pd(m0, max_m0, _CMP_LE_OQ)),
+            _mm256_cmp_pd(slope, max_slope, _CMP_LE_OQ));
+        const __m128i ok = _mm_and_si128(fits, mask32(ok_d));
+        const __m128i step_x = _mm_and_si128(ok, fixedSteps(_mm256_mul_pd(m0, scale)));
+        const __m128i step_y = _mm_and_si128(ok, fixedSteps(_mm256_mul_pd(m3, scale)));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x + c), step_x);
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y + c), step_y);
+        const __m256d sx0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m0, xs), zero), m2);
+        const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), zero), m5);
+        planMeshFour(src, C, sx0, sy0, _mm256_mul_pd(m0, last), _mm256_mul_pd(m3, last),
+                     chunkOffsets(step_x, lanePixel(C, C - 1, 8)), chunkOffsets(step_y, lanePixel(C, C - 1, 15)), ok,
+                     plan, c);
+    }
+}
+
+// The same for any cell from the row's entries (MatrixPerChunk::beginRow).
+__attribute__((target("avx2"))) inline void planMeshChunksAvx2(const PlaneSpan &src, int channels,
+                                                               const MatrixPerChunk &chunks, RowPlan &plan, int first,
+                                                               int count)
+{
+    const __m256d zero = _mm256_setzero_pd(), last = _mm256_set1_pd(double(kChunk - 1));
+    const __m128i zero_i = _mm_setzero_si128();
     for (int c = 0; c < count; c += 4) {
         const int k = first + c;
         const __m256d m0 = _mm256_loadu_pd(chunks.m0() + k), m3 = _mm256_loadu_pd(chunks.m3() + k);
         const __m256d m2 = _mm256_loadu_pd(chunks.m2() + k), m5 = _mm256_loadu_pd(chunks.m5() + k);
         const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(k * kChunk), _mm_setr_epi32(0, 16, 32, 48)));
-        // planChunk: m0 x + m1 y + m2 with m1 y = 0 (adding it changes nothing).
         const __m256d sx0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m0, xs), zero), m2);
         const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), zero), m5);
-        const __m128i qx = _mm256_cvttpd_epi32(_mm256_mul_pd(sx0, k1024));
-        const __m128i qy = _mm256_cvttpd_epi32(_mm256_mul_pd(sy0, k1024));
-        const __m128i ix0 = _mm_srai_epi32(qx, 10), iy0 = _mm_srai_epi32(qy, 10);
-        const __m128i frx = _mm_and_si128(qx, fraction), fry = _mm_and_si128(qy, fraction);
-        const __m128i last_window = _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.lastWindows() + k));
-        const __m128i last_offset_y = _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.lastOffsetsY() + k));
-        const __m128i ky_last = _mm_srai_epi32(_mm_add_epi32(fry, last_offset_y), 10);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ix0 + c), ix0);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.iy0 + c), iy0);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.frx + c), frx);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.fry + c), fry);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ky_last + c), ky_last);
-        const __m256d sx1 = _mm256_add_pd(sx0, _mm256_mul_pd(m0, last)), sy1 = _mm256_add_pd(sy0, _mm256_mul_pd(m3, last));
-        const __m256d inside = _mm256_and_pd(
-            _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sx0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sx1, zero, _CMP_GE_OQ)),
-                          _mm256_and_pd(_mm256_cmp_pd(sx0, width1, _CMP_LT_OQ), _mm256_cmp_pd(sx1, width1, _CMP_LT_OQ))),
-            _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sy0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sy1, zero, _CMP_GE_OQ)),
-                          _mm256_and_pd(_mm256_cmp_pd(sy0, height1, _CMP_LT_OQ), _mm256_cmp_pd(sy1, height1, _CMP_LT_OQ))));
-        const __m128i ky_min = _mm_min_epi32(zero_i, ky_last), ky_max = _mm_max_epi32(zero_i, ky_last);
-        const __m128i window_end =
-            _mm_mullo_epi32(_mm_add_epi32(ix0, _mm_srai_epi32(_mm_add_epi32(frx, last_window), 10)),
-                            _mm_set1_epi32(channels));
-        const __m128i refused = _mm_or_si128(
-            _mm_or_si128(_mm_cmpgt_epi32(window_end, row_bytes), _mm_cmpgt_epi32(_mm_sub_epi32(ky_max, ky_min), one)),
-            _mm_or_si128(_mm_cmpgt_epi32(_mm_add_epi32(_mm_add_epi32(iy0, ky_max), one), _mm_sub_epi32(height, one)),
-                         _mm_cmpgt_epi32(zero_i, _mm_add_epi32(iy0, ky_min))));
-        const __m128i inside32 = _mm256_castsi256_si128(
-            _mm256_permutevar8x32_epi32(_mm256_castpd_si256(inside), _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0)));
         const __m128i taken = _mm_cmpgt_epi32(
             _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.vectorOks() + k)), zero_i);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.vector_ok + c),
-                         _mm_and_si128(taken, _mm_andnot_si128(refused, inside32)));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x + c),
+                         _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.stepsX() + k)));
+        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y + c),
+                         _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.stepsY() + k)));
+        planMeshFour(src, channels, sx0, sy0, _mm256_mul_pd(m0, last), _mm256_mul_pd(m3, last),
+                     _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.lastWindows() + k)),
+                     _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.lastOffsetsY() + k)), taken, plan, c);
     }
 }
 
 // warpRowsAvx2 with a matrix per chunk: the row's chunks planned with their own matrices
-// (planMeshChunksAvx2), their bytes from chunkVectorAvx2 with their own offsets.
+// (planMeshRowAvx2, planMeshChunksAvx2), their bytes from chunkVectorAvx2 with their own
+// offsets.
 template <int C>
 __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
                                                       int dst_width, int row_begin, int row_end,
@@ -962,19 +1024,27 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
     // Byte shuffle control: each 128-bit half's first 16-bit lane in all its lanes.
     const __m256i first_lane = _mm256_set1_epi16(0x0100);
     const int chunks_in_row = dst_width / kChunk;
+    const bool one_chunk_cells = chunks.mesh().cell == kChunk;
+    const int per_cell = chunks.mesh().cell / kChunk;
     RowPlan plan;
     for (int y = row_begin; y < row_end; ++y) {
-        chunks.beginRowAvx2(y, chunks_in_row);
+        if (one_chunk_cells)
+            chunks.beginRowNodesAvx2(y);
+        else
+            chunks.beginRow(y, chunks_in_row);
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         for (int first = 0; first < chunks_in_row; first += kPlanChunks) {
             const int count = std::min(kPlanChunks, chunks_in_row - first);
-            planMeshChunksAvx2(src, channels, chunks, plan, first, count);
+            if (one_chunk_cells)
+                planMeshRowAvx2<C>(src, chunks, plan, first, count);
+            else
+                planMeshChunksAvx2(src, channels, chunks, plan, first, count);
             prefetchBelow(src, channels, plan, count);
             for (int c = 0; c < count; ++c) {
                 const int k = first + c, x = k * kChunk;
                 if (!plan.vector_ok[c]) {
                     double m[6];
-                    chunks.matrix(k, m);
+                    chunks.chunkMatrix(k / per_cell, m);
                     samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
                     continue;
                 }
@@ -982,21 +1052,22 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
                 // cells the steps seldom repeat, and a test that they did cost more than it
                 // saved). The windows start at each half's first lane (0 and 8 / C * C = 8),
                 // lane 0 of vector 0 being pixel 0, offset 0.
-                const auto chunkSteps = [&](int k, int v) __attribute__((target("avx2"), always_inline)) {
+                const auto chunkSteps = [&](int c, int v) __attribute__((target("avx2"), always_inline)) {
                     Avx2RowSteps steps;
+                    const int step_x = plan.step_x[c];
                     // step_x >= 0 (a chunk is taken only when m0 > 0): no sign to apply.
-                    steps.offset_x = offsetsUnsigned(v, chunks.stepX(k));
-                    steps.offset_y = offsets(v, chunks.stepY(k));
+                    steps.offset_x = offsetsUnsigned(v, step_x);
+                    steps.offset_y = offsets(v, plan.step_y[c]);
                     steps.window = _mm256_shuffle_epi8(steps.offset_x, first_lane);
-                    steps.window_lo = v == 0 ? 0 : std::int16_t(_mm256_extract_epi16(steps.offset_x, 0));
-                    steps.window_hi = std::int16_t(_mm256_extract_epi16(steps.offset_x, 8));
+                    steps.window_lo = v == 0 ? 0 : chunkOffset(step_x, lanePixel(C, v, 0));
+                    steps.window_hi = chunkOffset(step_x, lanePixel(C, v, 8));
                     return steps;
                 };
                 if (C == 1 && c + 2 <= count && (plan.vector_ok[c] & plan.vector_ok[c + 1])) {
                     // Two chunks' vectors packed into one 32-byte store.
-                    const __m256i a = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(k, 0), plan.ix0[c],
+                    const __m256i a = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(c, 0), plan.ix0[c],
                                                          plan.iy0[c], plan.frx[c], plan.fry[c], plan.ky_last[c]);
-                    const __m256i b = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(k + 1, 0),
+                    const __m256i b = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(c + 1, 0),
                                                          plan.ix0[c + 1], plan.iy0[c + 1], plan.frx[c + 1],
                                                          plan.fry[c + 1], plan.ky_last[c + 1]);
                     _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + x),
@@ -1006,7 +1077,7 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
                 }
                 __m256i vectors[C];
                 for (int v = 0; v < C; ++v)
-                    vectors[v] = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(k, v), plan.ix0[c],
+                    vectors[v] = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(c, v), plan.ix0[c],
                                                     plan.iy0[c], plan.frx[c], plan.fry[c], plan.ky_last[c]);
                 const __m256i packed =
                     _mm256_permute4x64_epi64(_mm256_packus_epi16(vectors[0], vectors[C - 1]), 0xD8);
