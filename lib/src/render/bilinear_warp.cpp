@@ -377,9 +377,23 @@ struct RowPlan {
     alignas(32) int fry[kPlanChunks + 4];
     alignas(32) int ky_last[kPlanChunks + 4];
     alignas(32) int vector_ok[kPlanChunks + 4];  // -1: a vector kernel takes the chunk
-    // The mesh warp's: the chunk's steps (MatrixPerChunk::stepX, stepY).
-    alignas(32) int step_x[kPlanChunks + 4];
-    alignas(32) int step_y[kPlanChunks + 4];
+};
+
+// The mesh warp's plan: besides planChunk's, what the AVX2 kernel would otherwise derive
+// per chunk in general registers. Each 16-bit value twice in an int (both halves), so that
+// the kernel broadcasts it with one load: frx, fry; fixedStep of m0 split into its high
+// and low 16 bits; likewise |fixedStep of m3| and its sign (+-1); and the byte each window
+// of vector v, half h starts at in its source rows ((ix0 + k) * C, k = the window's first
+// tap), [v * 2 + h].
+struct MeshPlan : RowPlan {
+    alignas(32) int frx2[kPlanChunks + 4];
+    alignas(32) int fry2[kPlanChunks + 4];
+    alignas(32) int step_x_high2[kPlanChunks + 4];
+    alignas(32) int step_x_low2[kPlanChunks + 4];
+    alignas(32) int step_y_high2[kPlanChunks + 4];
+    alignas(32) int step_y_low2[kPlanChunks + 4];
+    alignas(32) int step_y_sign2[kPlanChunks + 4];
+    alignas(32) int window_byte[4][kPlanChunks + 4];
 };
 
 // The chunks [lo, hi) of row y that pass every one of planChunk's tests (all taps inside,
@@ -869,22 +883,32 @@ __attribute__((target("avx2"))) inline __m128i chunkOffsets(__m128i step, int j)
     return _mm_sign_epi32(r, step);
 }
 
+// A 16-bit value in both halves of each 32-bit lane.
+__attribute__((target("avx2"))) inline __m128i twice16(__m128i v)
+{
+    return _mm_or_si128(_mm_and_si128(v, _mm_set1_epi32(0xffff)), _mm_slli_epi32(v, 16));
+}
+
 // planChunk's tests of four chunks (the operations of planChunksAvx2<false>, lane by lane
 // the same as planChunk's) from their first pixels' positions, their last pixels' offsets
-// from them and their steps' lane offsets, into plan entries [at, at + 4). `taken`: the
-// chunks the window trick takes at all (else refused whatever their plan).
-__attribute__((target("avx2"), always_inline)) inline void planMeshFour(const PlaneSpan &src, int channels,
-                                                                       __m256d sx0, __m256d sy0, __m256d last_x,
-                                                                       __m256d last_y, __m128i last_window,
-                                                                       __m128i last_offset_y, __m128i taken,
-                                                                       RowPlan &plan, int at)
+// from them and their steps (fixedStep), into plan entries [at, at + 4) with the rest of
+// MeshPlan's. `taken`: the chunks the window trick takes at all (else refused whatever
+// their plan; their steps are 0).
+template <int C>
+__attribute__((target("avx2"), always_inline)) inline void planMeshFour(const PlaneSpan &src, __m256d sx0,
+                                                                       __m256d sy0, __m256d last_x, __m256d last_y,
+                                                                       __m128i step_x, __m128i step_y,
+                                                                       __m128i taken, MeshPlan &plan, int at)
 {
+    constexpr int channels = C;
     const __m256d zero = _mm256_setzero_pd();
     const __m256d width1 = _mm256_set1_pd(double(src.width - 1)), height1 = _mm256_set1_pd(double(src.height - 1));
     const __m256d k1024 = _mm256_set1_pd(1024.0);
     const __m128i fraction = _mm_set1_epi32(1023);
     const __m128i row_bytes = _mm_set1_epi32(src.width * channels - 16);
     const __m128i height = _mm_set1_epi32(src.height), one = _mm_set1_epi32(1), zero_i = _mm_setzero_si128();
+    const __m128i last_window = chunkOffsets(step_x, lanePixel(C, C - 1, 8));
+    const __m128i last_offset_y = chunkOffsets(step_y, lanePixel(C, C - 1, 15));
     const __m128i qx = _mm256_cvttpd_epi32(_mm256_mul_pd(sx0, k1024));
     const __m128i qy = _mm256_cvttpd_epi32(_mm256_mul_pd(sy0, k1024));
     const __m128i ix0 = _mm_srai_epi32(qx, 10), iy0 = _mm_srai_epi32(qy, 10);
@@ -892,8 +916,6 @@ __attribute__((target("avx2"), always_inline)) inline void planMeshFour(const Pl
     const __m128i ky_last = _mm_srai_epi32(_mm_add_epi32(fry, last_offset_y), 10);
     _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ix0 + at), ix0);
     _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.iy0 + at), iy0);
-    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.frx + at), frx);
-    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.fry + at), fry);
     _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ky_last + at), ky_last);
     const __m256d sx1 = _mm256_add_pd(sx0, last_x), sy1 = _mm256_add_pd(sy0, last_y);
     const __m256d inside = _mm256_and_pd(
@@ -911,6 +933,24 @@ __attribute__((target("avx2"), always_inline)) inline void planMeshFour(const Pl
                      _mm_cmpgt_epi32(zero_i, _mm_add_epi32(iy0, ky_min))));
     _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.vector_ok + at),
                      _mm_and_si128(taken, _mm_andnot_si128(refused, mask32(inside))));
+    // What the kernel broadcasts (the steps of a chunk taken are >= 0 for x).
+    const __m128i low16 = _mm_set1_epi32(0xffff);
+    const __m128i step_y_abs = _mm_abs_epi32(step_y);
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.frx2 + at), twice16(frx));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.fry2 + at), twice16(fry));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x_high2 + at), twice16(_mm_srai_epi32(step_x, 16)));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x_low2 + at), twice16(_mm_and_si128(step_x, low16)));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y_high2 + at), twice16(_mm_srli_epi32(step_y_abs, 16)));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y_low2 + at), twice16(_mm_and_si128(step_y_abs, low16)));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y_sign2 + at),
+                     _mm_or_si128(_mm_cmpgt_epi32(zero_i, step_y), _mm_set1_epi32(0x00010001)));
+    for (int v = 0; v < C; ++v)
+        for (int h = 0; h < 2; ++h) {
+            const __m128i k = _mm_srai_epi32(_mm_add_epi32(frx, chunkOffsets(step_x, lanePixel(C, v, 8 * h))), 10);
+            const __m128i pixel = _mm_add_epi32(ix0, k);
+            _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.window_byte[v * 2 + h] + at),
+                             C == 2 ? _mm_add_epi32(pixel, pixel) : pixel);
+        }
 }
 
 // The plan of chunks [first, first + count) of a mesh row in one-chunk cells, four at a
@@ -919,7 +959,7 @@ __attribute__((target("avx2"), always_inline)) inline void planMeshFour(const Pl
 // decisions (m1 = m4 = 0: planChunk's m1 y adds zero, as here).
 template <int C>
 __attribute__((target("avx2"))) inline void planMeshRowAvx2(const PlaneSpan &src, const MatrixPerChunk &chunks,
-                                                            RowPlan &plan, int first, int count)
+                                                            MeshPlan &plan, int first, int count)
 {
     const __m256d inv_cell = _mm256_set1_pd(1.0 / kChunk);  // exact: as the division
     const __m256d zero = _mm256_setzero_pd(), max_m0 = _mm256_set1_pd(1.25), max_slope = _mm256_set1_pd(0.9);
@@ -942,20 +982,17 @@ __attribute__((target("avx2"))) inline void planMeshRowAvx2(const PlaneSpan &src
         const __m128i ok = _mm_and_si128(fits, mask32(ok_d));
         const __m128i step_x = _mm_and_si128(ok, fixedSteps(_mm256_mul_pd(m0, scale)));
         const __m128i step_y = _mm_and_si128(ok, fixedSteps(_mm256_mul_pd(m3, scale)));
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x + c), step_x);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y + c), step_y);
         const __m256d sx0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m0, xs), zero), m2);
         const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), zero), m5);
-        planMeshFour(src, C, sx0, sy0, _mm256_mul_pd(m0, last), _mm256_mul_pd(m3, last),
-                     chunkOffsets(step_x, lanePixel(C, C - 1, 8)), chunkOffsets(step_y, lanePixel(C, C - 1, 15)), ok,
-                     plan, c);
+        planMeshFour<C>(src, sx0, sy0, _mm256_mul_pd(m0, last), _mm256_mul_pd(m3, last), step_x, step_y, ok, plan, c);
     }
 }
 
-// The same for any cell from the row's entries (MatrixPerChunk::beginRow).
-__attribute__((target("avx2"))) inline void planMeshChunksAvx2(const PlaneSpan &src, int channels,
-                                                               const MatrixPerChunk &chunks, RowPlan &plan, int first,
-                                                               int count)
+// The same for any cell from the row's entries (MatrixPerChunk::beginRow; its last window
+// and last offset are chunkOffsets' of its steps).
+template <int C>
+__attribute__((target("avx2"))) inline void planMeshChunksAvx2(const PlaneSpan &src, const MatrixPerChunk &chunks,
+                                                               MeshPlan &plan, int first, int count)
 {
     const __m256d zero = _mm256_setzero_pd(), last = _mm256_set1_pd(double(kChunk - 1));
     const __m128i zero_i = _mm_setzero_si128();
@@ -968,19 +1005,46 @@ __attribute__((target("avx2"))) inline void planMeshChunksAvx2(const PlaneSpan &
         const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), zero), m5);
         const __m128i taken = _mm_cmpgt_epi32(
             _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.vectorOks() + k)), zero_i);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x + c),
-                         _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.stepsX() + k)));
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y + c),
-                         _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.stepsY() + k)));
-        planMeshFour(src, channels, sx0, sy0, _mm256_mul_pd(m0, last), _mm256_mul_pd(m3, last),
-                     _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.lastWindows() + k)),
-                     _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.lastOffsetsY() + k)), taken, plan, c);
+        planMeshFour<C>(src, sx0, sy0, _mm256_mul_pd(m0, last), _mm256_mul_pd(m3, last),
+                        _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.stepsX() + k)),
+                        _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.stepsY() + k)), taken, plan, c);
     }
 }
 
+// One vector of a mesh chunk from its plan (MeshPlan), with chunkVectorAvx2's arithmetic:
+// the lanes' offsets and the halves' window starts given; `row` the chunk's first source row.
+template <int C>
+__attribute__((target("avx2"), always_inline)) inline __m256i chunkVectorMeshAvx2(
+    const std::uint8_t *row, std::size_t stride, const Avx2Lanes &lanes, __m256i offset_x, __m256i offset_y,
+    __m256i window, __m256i frx_v, __m256i fry_v, int byte0, int byte1, int ky_last)
+{
+    const __m256i rel_x = _mm256_add_epi16(frx_v, offset_x);
+    const __m256i rel_y = _mm256_add_epi16(fry_v, offset_y);
+    const __m256i kx = _mm256_srli_epi16(rel_x, 10);
+    const __m256i fx = _mm256_and_si256(_mm256_srli_epi16(rel_x, 10 - kFracBits), lanes.frac_mask);
+    const __m256i fy = _mm256_and_si256(_mm256_srai_epi16(rel_y, 10 - kFracBits), lanes.frac_mask);
+    const __m256i window_k = _mm256_srli_epi16(_mm256_add_epi16(frx_v, window), 10);
+    __m256i left = _mm256_sub_epi16(kx, window_k);
+    if (C == 2) {
+        left = _mm256_add_epi16(left, left);
+        left = _mm256_add_epi16(left, lanes.channel);
+    }
+    const __m256i ctrl = _mm256_add_epi16(left, _mm256_add_epi16(_mm256_slli_epi16(left, 8), lanes.next_tap));
+    const __m256i wx = _mm256_or_si256(_mm256_sub_epi16(lanes.one, fx), _mm256_slli_epi16(fx, 8));
+    const __m256i fy_scaled = _mm256_slli_epi16(fy, 9);
+    __m256i value = interpolateRows(row, row + stride, byte0, byte1, ctrl, wx, fy_scaled);
+    if (ky_last != 0) {
+        const __m256i lower = interpolateRows(row + stride, row + 2 * stride, byte0, byte1, ctrl, wx, fy_scaled);
+        const __m256i ky = _mm256_srai_epi16(rel_y, 10);
+        value = _mm256_blendv_epi8(value, lower,
+                                   _mm256_cmpeq_epi16(ky, _mm256_set1_epi16(std::int16_t(std::max(0, ky_last)))));
+    }
+    return _mm256_srli_epi16(_mm256_add_epi16(value, _mm256_set1_epi16(kOne / 2)), kFracBits);
+}
+
 // warpRowsAvx2 with a matrix per chunk: the row's chunks planned with their own matrices
-// (planMeshRowAvx2, planMeshChunksAvx2), their bytes from chunkVectorAvx2 with their own
-// offsets.
+// (planMeshRowAvx2, planMeshChunksAvx2), their bytes from chunkVectorMeshAvx2 with their
+// own offsets.
 template <int C>
 __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
                                                       int dst_width, int row_begin, int row_end,
@@ -1008,25 +1072,34 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
         pixel2[v] = _mm256_add_epi16(pixel[v], pixel[v]);
     }
     const __m256i one16 = _mm256_set1_epi16(1);
-    const auto offsets = [&](int v, int step) __attribute__((target("avx2"))) {
-        const int a = std::abs(step);
-        const __m256i high = _mm256_mullo_epi16(pixel[v], _mm256_set1_epi16(std::int16_t(a >> 16)));
-        const __m256i low = _mm256_srli_epi16(
-            _mm256_add_epi16(_mm256_mulhi_epu16(pixel2[v], _mm256_set1_epi16(std::int16_t(a & 0xffff))), one16), 1);
-        return _mm256_sign_epi16(_mm256_add_epi16(high, low), _mm256_set1_epi16(std::int16_t(step < 0 ? -1 : 1)));
-    };
-    const auto offsetsUnsigned = [&](int v, int step) __attribute__((target("avx2"))) {
-        const __m256i high = _mm256_mullo_epi16(pixel[v], _mm256_set1_epi16(std::int16_t(step >> 16)));
-        const __m256i low = _mm256_srli_epi16(
-            _mm256_add_epi16(_mm256_mulhi_epu16(pixel2[v], _mm256_set1_epi16(std::int16_t(step & 0xffff))), one16), 1);
-        return _mm256_add_epi16(high, low);
-    };
     // Byte shuffle control: each 128-bit half's first 16-bit lane in all its lanes.
     const __m256i first_lane = _mm256_set1_epi16(0x0100);
     const int chunks_in_row = dst_width / kChunk;
     const bool one_chunk_cells = chunks.mesh().cell == kChunk;
     const int per_cell = chunks.mesh().cell / kChunk;
-    RowPlan plan;
+    MeshPlan plan;
+    // Chunk c's vector v (in 16-bit lanes, not yet packed). Its lane offsets are recomputed
+    // for every chunk (in a mesh of 16-px cells the steps seldom repeat), from the plan's
+    // broadcast values.
+    const auto chunkVector = [&](int c, int v) __attribute__((target("avx2"), always_inline)) {
+        const __m256i offset_x = _mm256_add_epi16(
+            _mm256_mullo_epi16(pixel[v], _mm256_set1_epi32(plan.step_x_high2[c])),
+            _mm256_srli_epi16(_mm256_add_epi16(_mm256_mulhi_epu16(pixel2[v], _mm256_set1_epi32(plan.step_x_low2[c])),
+                                               one16),
+                              1));
+        const __m256i offset_y_abs = _mm256_add_epi16(
+            _mm256_mullo_epi16(pixel[v], _mm256_set1_epi32(plan.step_y_high2[c])),
+            _mm256_srli_epi16(_mm256_add_epi16(_mm256_mulhi_epu16(pixel2[v], _mm256_set1_epi32(plan.step_y_low2[c])),
+                                               one16),
+                              1));
+        const __m256i offset_y = _mm256_sign_epi16(offset_y_abs, _mm256_set1_epi32(plan.step_y_sign2[c]));
+        const int ky_last = plan.ky_last[c];
+        const std::uint8_t *row = src.data + std::size_t(plan.iy0[c] + std::min(0, ky_last)) * stride;
+        return chunkVectorMeshAvx2<C>(row, stride, lanes, offset_x, offset_y,
+                                      _mm256_shuffle_epi8(offset_x, first_lane), _mm256_set1_epi32(plan.frx2[c]),
+                                      _mm256_set1_epi32(plan.fry2[c]), plan.window_byte[2 * v][c],
+                                      plan.window_byte[2 * v + 1][c], ky_last);
+    };
     for (int y = row_begin; y < row_end; ++y) {
         if (one_chunk_cells)
             chunks.beginRowNodesAvx2(y);
@@ -1038,7 +1111,7 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
             if (one_chunk_cells)
                 planMeshRowAvx2<C>(src, chunks, plan, first, count);
             else
-                planMeshChunksAvx2(src, channels, chunks, plan, first, count);
+                planMeshChunksAvx2<C>(src, chunks, plan, first, count);
             prefetchBelow(src, channels, plan, count);
             for (int c = 0; c < count; ++c) {
                 const int k = first + c, x = k * kChunk;
@@ -1048,28 +1121,9 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
                     samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
                     continue;
                 }
-                // The chunk's lane offsets, recomputed for every chunk (in a mesh of 16-px
-                // cells the steps seldom repeat, and a test that they did cost more than it
-                // saved). The windows start at each half's first lane (0 and 8 / C * C = 8),
-                // lane 0 of vector 0 being pixel 0, offset 0.
-                const auto chunkSteps = [&](int c, int v) __attribute__((target("avx2"), always_inline)) {
-                    Avx2RowSteps steps;
-                    const int step_x = plan.step_x[c];
-                    // step_x >= 0 (a chunk is taken only when m0 > 0): no sign to apply.
-                    steps.offset_x = offsetsUnsigned(v, step_x);
-                    steps.offset_y = offsets(v, plan.step_y[c]);
-                    steps.window = _mm256_shuffle_epi8(steps.offset_x, first_lane);
-                    steps.window_lo = v == 0 ? 0 : chunkOffset(step_x, lanePixel(C, v, 0));
-                    steps.window_hi = chunkOffset(step_x, lanePixel(C, v, 8));
-                    return steps;
-                };
                 if (C == 1 && c + 2 <= count && (plan.vector_ok[c] & plan.vector_ok[c + 1])) {
                     // Two chunks' vectors packed into one 32-byte store.
-                    const __m256i a = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(c, 0), plan.ix0[c],
-                                                         plan.iy0[c], plan.frx[c], plan.fry[c], plan.ky_last[c]);
-                    const __m256i b = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(c + 1, 0),
-                                                         plan.ix0[c + 1], plan.iy0[c + 1], plan.frx[c + 1],
-                                                         plan.fry[c + 1], plan.ky_last[c + 1]);
+                    const __m256i a = chunkVector(c, 0), b = chunkVector(c + 1, 0);
                     _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + x),
                                         _mm256_permute4x64_epi64(_mm256_packus_epi16(a, b), 0xD8));
                     ++c;
@@ -1077,8 +1131,7 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
                 }
                 __m256i vectors[C];
                 for (int v = 0; v < C; ++v)
-                    vectors[v] = chunkVectorAvx2<C>(src.data, stride, lanes, chunkSteps(c, v), plan.ix0[c],
-                                                    plan.iy0[c], plan.frx[c], plan.fry[c], plan.ky_last[c]);
+                    vectors[v] = chunkVector(c, v);
                 const __m256i packed =
                     _mm256_permute4x64_epi64(_mm256_packus_epi16(vectors[0], vectors[C - 1]), 0xD8);
                 if (C == 2)
