@@ -1787,7 +1787,7 @@ __attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, s
     }
     const Cv4PixelsAvx2 pixels(src, replicate, border);
     MeshRow row(mesh);
-    const __m256d cell = _mm256_set1_pd(double(mesh.cell)), k1024 = _mm256_set1_pd(1024.0);
+    const __m256d k1024 = _mm256_set1_pd(1024.0);
     const __m256d low = _mm256_set1_pd(-30000.0), high = _mm256_set1_pd(30000.0);
     const __m128i sixteen = _mm_set1_epi32(16);
     // Clamped, x 1024, rounded, + 16: (round(s * 1024) + 16) of four pixels.
@@ -1795,36 +1795,57 @@ __attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, s
         return _mm_add_epi32(_mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_min_pd(_mm256_max_pd(v, low), high), k1024)),
                              sixteen);
     };
+    // (x - x_cell) / cell for every column of a cell: the same doubles as dividing there.
+    std::vector<double> fractions(std::size_t(mesh.cell));
+    for (int k = 0; k < mesh.cell; ++k)
+        fractions[std::size_t(k)] = double(k) / mesh.cell;
     for (int y = row_begin; y < row_end; ++y) {
         row.begin(y);
         const double *row_x = row.x(), *row_y = row.y();
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         int x = 0;
-        for (; x + 8 <= dst_width; x += 8) {
-            const int i = x / mesh.cell;
-            const __m256d x_cell = _mm256_set1_pd(double(i) * mesh.cell);
-            const __m256d left_x = _mm256_set1_pd(row_x[i]), span_x = _mm256_set1_pd(row_x[i + 1] - row_x[i]);
-            const __m256d left_y = _mm256_set1_pd(row_y[i]), span_y = _mm256_set1_pd(row_y[i + 1] - row_y[i]);
-            const __m256d o0 = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(0, 1, 2, 3)));
-            const __m256d o1 = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(4, 5, 6, 7)));
-            const __m256d s0 = _mm256_div_pd(_mm256_sub_pd(o0, x_cell), cell);
-            const __m256d s1 = _mm256_div_pd(_mm256_sub_pd(o1, x_cell), cell);
-            const __m256d sx0 = _mm256_add_pd(left_x, _mm256_mul_pd(span_x, s0));
-            const __m256d sx1 = _mm256_add_pd(left_x, _mm256_mul_pd(span_x, s1));
-            const __m256d sy0 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s0));
-            const __m256d sy1 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s1));
-            const __m256d nan = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(sx0, sx0, _CMP_UNORD_Q),
-                                                          _mm256_cmp_pd(sx1, sx1, _CMP_UNORD_Q)),
-                                             _mm256_or_pd(_mm256_cmp_pd(sy0, sy0, _CMP_UNORD_Q),
-                                                          _mm256_cmp_pd(sy1, sy1, _CMP_UNORD_Q)));
-            if (_mm256_movemask_pd(nan) != 0) {
-                for (int j = 0; j < 8; ++j)
-                    sampleMeshPixelCv<4>(src, row.at(x + j), replicate, border, out + 4 * (x + j));
-                continue;
+        // Cell by cell (a cell holds whole groups of eight: its width is a multiple of 16).
+        for (int i = 0; x + 8 <= dst_width; ++i) {
+            const int cell_end = std::min(dst_width, (i + 1) * mesh.cell);
+            const double lx = row_x[i], ly = row_y[i], rx = row_x[i + 1], ry = row_y[i + 1];
+            const __m256d left_x = _mm256_set1_pd(lx), span_x = _mm256_set1_pd(rx - lx);
+            const __m256d left_y = _mm256_set1_pd(ly), span_y = _mm256_set1_pd(ry - ly);
+            // Nodes well inside +-30000 px: every position of the cell lies between them
+            // (left + span s, s in [0, 1)), so neither NaN nor clamped: those tests go.
+            const bool plain = std::abs(lx) < 29000.0 && std::abs(rx) < 29000.0 && std::abs(ly) < 29000.0 &&
+                               std::abs(ry) < 29000.0;
+            for (; x + 8 <= cell_end; x += 8) {
+                const double *f = fractions.data() + (x - i * mesh.cell);
+                const __m256d s0 = _mm256_loadu_pd(f), s1 = _mm256_loadu_pd(f + 4);
+                const __m256d sx0 = _mm256_add_pd(left_x, _mm256_mul_pd(span_x, s0));
+                const __m256d sx1 = _mm256_add_pd(left_x, _mm256_mul_pd(span_x, s1));
+                const __m256d sy0 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s0));
+                const __m256d sy1 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s1));
+                if (plain) {
+                    const auto fixed_inside = [&](__m256d v) __attribute__((target("avx2"), always_inline)) {
+                        return _mm256_cvtpd_epi32(_mm256_mul_pd(v, k1024));
+                    };
+                    const __m256i sixteen8 = _mm256_set1_epi32(16);
+                    const __m256i X = _mm256_srai_epi32(
+                        _mm256_add_epi32(_mm256_set_m128i(fixed_inside(sx1), fixed_inside(sx0)), sixteen8), 5);
+                    const __m256i Y = _mm256_srai_epi32(
+                        _mm256_add_epi32(_mm256_set_m128i(fixed_inside(sy1), fixed_inside(sy0)), sixteen8), 5);
+                    pixels(X, Y, out + 4 * x);
+                    continue;
+                }
+                const __m256d nan = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(sx0, sx0, _CMP_UNORD_Q),
+                                                              _mm256_cmp_pd(sx1, sx1, _CMP_UNORD_Q)),
+                                                 _mm256_or_pd(_mm256_cmp_pd(sy0, sy0, _CMP_UNORD_Q),
+                                                              _mm256_cmp_pd(sy1, sy1, _CMP_UNORD_Q)));
+                if (_mm256_movemask_pd(nan) != 0) {
+                    for (int j = 0; j < 8; ++j)
+                        sampleMeshPixelCv<4>(src, row.at(x + j), replicate, border, out + 4 * (x + j));
+                    continue;
+                }
+                const __m256i X = _mm256_srai_epi32(_mm256_set_m128i(fixed(sx1), fixed(sx0)), 5);
+                const __m256i Y = _mm256_srai_epi32(_mm256_set_m128i(fixed(sy1), fixed(sy0)), 5);
+                pixels(X, Y, out + 4 * x);
             }
-            const __m256i X = _mm256_srai_epi32(_mm256_set_m128i(fixed(sx1), fixed(sx0)), 5);
-            const __m256i Y = _mm256_srai_epi32(_mm256_set_m128i(fixed(sy1), fixed(sy0)), 5);
-            pixels(X, Y, out + 4 * x);
         }
         for (; x < dst_width; ++x)
             sampleMeshPixelCv<4>(src, row.at(x), replicate, border, out + 4 * x);
