@@ -1592,6 +1592,22 @@ private:
             top = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(row)), idx);
             bottom = _mm256_permutevar8x32_epi32(
                 _mm256_loadu_si256(reinterpret_cast<const __m256i *>(row + src_.stride)), idx);
+        } else if (std::abs(sy3 - sy0) == 1 && sx3 >= sx0 && sx3 - sx0 <= 6 && sx0 + 8 <= src_.width) {
+            // The four cross one source row (a slanted or bent row of the output): windows
+            // of three rows, each pixel's top and bottom tap from the pair at its own row.
+            const int first = std::min(sy0, sy3);  // first + 2 <= height - 1: sy <= height - 2
+            const std::uint8_t *row = src_.data + std::size_t(first) * src_.stride + std::size_t(sx0) * 4;
+            const __m256i d = _mm256_cvtepu32_epi64(_mm_sub_epi32(sx, _mm_set1_epi32(sx0)));
+            const __m256i idx = _mm256_or_si256(d, _mm256_slli_epi64(_mm256_add_epi64(d, one64_), 32));
+            const __m256i r0 = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(row)), idx);
+            const __m256i r1 = _mm256_permutevar8x32_epi32(
+                _mm256_loadu_si256(reinterpret_cast<const __m256i *>(row + src_.stride)), idx);
+            const __m256i r2 = _mm256_permutevar8x32_epi32(
+                _mm256_loadu_si256(reinterpret_cast<const __m256i *>(row + 2 * std::size_t(src_.stride))), idx);
+            // Pixels on the second row: sy == first + 1 (in 64-bit lanes).
+            const __m256i lower = _mm256_cmpgt_epi64(_mm256_cvtepi32_epi64(sy), _mm256_set1_epi64x(first));
+            top = _mm256_blendv_epi8(r0, r1, lower);
+            bottom = _mm256_blendv_epi8(r1, r2, lower);
         } else {
             const __m128i offset = _mm_add_epi32(_mm_mullo_epi32(sy, stride_), _mm_slli_epi32(sx, 2));
             top = _mm256_i32gather_epi64(base_, offset, 1);
