@@ -176,24 +176,35 @@ private:
 // cell's first column. Kernels call beginRow, then chunk() for each chunk in order.
 //
 // The lane offsets change with nearly every chunk here, so they come from integers rather
-// than setOffsets' 32 double products: m0 and m3 rounded to 2^-26 px (fixedStep), then
-// j * step rounded to 1/1024 px half away from zero (chunkOffset). That is setOffsets'
-// rounding of j * m * 1024 exactly whenever m is a multiple of 2^-16; else an offset may
-// differ from it by 1/1024 px where j * m * 1024 lies within 2^-12 of a half. Recomputed only
-// when the rounded steps change.
-constexpr int kStepBits = 26;  // 1024 * 2^16
+// than setOffsets' 32 double products, in arithmetic a vector kernel does in a few 16-bit
+// multiplies: m0 rounded to 2^-25 px (stepOfM0: s = m0 2^25, half away from zero) and pixel
+// j's offset (j s + 2^14) >> 15 (offsetX: j m0 1024 rounded half up; the kernel splits s
+// into b 2^15 + a, a in [-2^14, 2^14), and takes j b + pmulhrsw(a, j)); m3 rounded to
+// 2^-19 px (stepOfM3: |m3| <= 0.06, so |s| < 2^15) and the offset sign(s) ((|s| j 2^6 + 2^14)
+// >> 15) (offsetY: pmulhrsw of |s| and j 2^6, the sign applied). That is setOffsets' rounding
+// of j * m * 1024 exactly whenever m0 is a multiple of 2^-25 and m3 of 2^-19; else an
+// offset may differ from it by 1/1024 px where j * m * 1024 lies within 15 2^-16 (x) or
+// 15 2^-10 (y) of a half.
+constexpr int kStepXBits = 25, kStepYBits = 19;
 
-inline int fixedStep(double m)
+inline int roundStep(double v)
 {
-    const double v = m * double(1 << kStepBits);
-    const int i = int(v);  // |m| <= 1.25: in range
+    const int i = int(v);  // |v| <= 1.25 2^25: in range
     const double f = v - double(i);
     return i + (f >= 0.5) - (f <= -0.5);
 }
+inline int stepOfM0(double m0) { return roundStep(m0 * double(1 << kStepXBits)); }
+inline int stepOfM3(double m3) { return roundStep(m3 * double(1 << kStepYBits)); }
 
-inline int chunkOffset(int step, int j)
+// A taken chunk's steps: step_x >= 0 and <= 1.25 2^25, |step_y| < 2^15.
+inline int offsetX(int step, int j)
 {
-    const int r = (j * std::abs(step) + (1 << 15)) >> 16;
+    return (j * step + (1 << 14)) >> 15;
+}
+
+inline int offsetY(int step, int j)
+{
+    const int r = (std::abs(step) * (j << 6) + (1 << 14)) >> 15;
     return step < 0 ? -r : r;
 }
 
@@ -272,11 +283,11 @@ public:
         m5_[std::size_t(c)] = m[5];
         const bool ok = window_fits_ && chunkStepsOk(m[0], m[3]);
         vector_ok_[std::size_t(c)] = ok;
-        const int step_x = ok ? fixedStep(m[0]) : 0, step_y = ok ? fixedStep(m[3]) : 0;
+        const int step_x = ok ? stepOfM0(m[0]) : 0, step_y = ok ? stepOfM3(m[3]) : 0;
         step_x_[std::size_t(c)] = step_x;
         step_y_[std::size_t(c)] = step_y;
-        last_window_[std::size_t(c)] = chunkOffset(step_x, lanePixel(channels_, channels_ - 1, 8));
-        last_offset_y_[std::size_t(c)] = chunkOffset(step_y, lanePixel(channels_, channels_ - 1, 15));
+        last_window_[std::size_t(c)] = offsetX(step_x, lanePixel(channels_, channels_ - 1, 8));
+        last_offset_y_[std::size_t(c)] = offsetY(step_y, lanePixel(channels_, channels_ - 1, 15));
     }
     // Chunk c's matrix.
     void matrix(int c, double m[6]) const
@@ -290,7 +301,7 @@ public:
     }
     // Whether a vector kernel may take chunk c (else: per pixel with its matrix).
     bool vectorOk(int c) const { return vector_ok_[std::size_t(c)] != 0; }
-    // Chunk c's steps (fixedStep of m0, m3) and what planChunk reads of its lanes: the last
+    // Chunk c's steps (stepOfM0, stepOfM3) and what planChunk reads of its lanes: the last
     // window's offset and the last pixel's vertical offset.
     int stepX(int c) const { return step_x_[std::size_t(c)]; }
     int stepY(int c) const { return step_y_[std::size_t(c)]; }
@@ -304,8 +315,8 @@ public:
         if (!(lanes_valid_ && step_x == lanes_x_ && step_y == lanes_y_)) {
             for (int v = 0; v < channels_; ++v)
                 for (int l = 0; l < 16; ++l) {
-                    steps_.offset_x[v][l] = std::int16_t(chunkOffset(step_x, lanePixel(channels_, v, l)));
-                    steps_.offset_y[v][l] = std::int16_t(chunkOffset(step_y, lanePixel(channels_, v, l)));
+                    steps_.offset_x[v][l] = std::int16_t(offsetX(step_x, lanePixel(channels_, v, l)));
+                    steps_.offset_y[v][l] = std::int16_t(offsetY(step_y, lanePixel(channels_, v, l)));
                 }
             lanes_x_ = step_x;
             lanes_y_ = step_y;
@@ -381,17 +392,15 @@ struct RowPlan {
 
 // The mesh warp's plan: besides planChunk's, what the AVX2 kernel would otherwise derive
 // per chunk in general registers. Each 16-bit value twice in an int (both halves), so that
-// the kernel broadcasts it with one load: frx, fry; fixedStep of m0 split into its high
-// and low 16 bits; likewise |fixedStep of m3| and its sign (+-1); and the byte each window
-// of vector v, half h starts at in its source rows ((ix0 + k) * C, k = the window's first
-// tap), [v * 2 + h].
+// the kernel broadcasts it with one load: frx, fry; stepOfM0 split into b 2^15 + a; |stepY|
+// and its sign (+-1); and the byte each window of vector v, half h starts at in its source
+// rows ((ix0 + k) * C, k = the window's first tap), [v * 2 + h].
 struct MeshPlan : RowPlan {
     alignas(32) int frx2[kPlanChunks + 4];
     alignas(32) int fry2[kPlanChunks + 4];
-    alignas(32) int step_x_high2[kPlanChunks + 4];
-    alignas(32) int step_x_low2[kPlanChunks + 4];
-    alignas(32) int step_y_high2[kPlanChunks + 4];
-    alignas(32) int step_y_low2[kPlanChunks + 4];
+    alignas(32) int step_x_b2[kPlanChunks + 4];
+    alignas(32) int step_x_a2[kPlanChunks + 4];
+    alignas(32) int step_y_abs2[kPlanChunks + 4];
     alignas(32) int step_y_sign2[kPlanChunks + 4];
     alignas(32) int window_byte[4][kPlanChunks + 4];
 };
@@ -865,8 +874,8 @@ __attribute__((target("avx2"))) inline __m128i mask32(__m256d mask)
         _mm256_permutevar8x32_epi32(_mm256_castpd_si256(mask), _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0)));
 }
 
-// fixedStep of four doubles already times 2^26.
-__attribute__((target("avx2"))) inline __m128i fixedSteps(__m256d v)
+// roundStep of four doubles.
+__attribute__((target("avx2"))) inline __m128i roundSteps(__m256d v)
 {
     const __m128i i = _mm256_cvttpd_epi32(v);
     const __m256d f = _mm256_sub_pd(v, _mm256_cvtepi32_pd(i));
@@ -875,11 +884,16 @@ __attribute__((target("avx2"))) inline __m128i fixedSteps(__m256d v)
                          mask32(_mm256_cmp_pd(f, _mm256_set1_pd(-0.5), _CMP_LE_OQ)));
 }
 
-// chunkOffset of four steps for pixel j.
-__attribute__((target("avx2"))) inline __m128i chunkOffsets(__m128i step, int j)
+// offsetX, offsetY of four steps for pixel j.
+__attribute__((target("avx2"))) inline __m128i offsetsX(__m128i step, int j)
+{
+    return _mm_srai_epi32(_mm_add_epi32(_mm_mullo_epi32(step, _mm_set1_epi32(j)), _mm_set1_epi32(1 << 14)), 15);
+}
+
+__attribute__((target("avx2"))) inline __m128i offsetsY(__m128i step, int j)
 {
     const __m128i r = _mm_srli_epi32(
-        _mm_add_epi32(_mm_mullo_epi32(_mm_set1_epi32(j), _mm_abs_epi32(step)), _mm_set1_epi32(1 << 15)), 16);
+        _mm_add_epi32(_mm_mullo_epi32(_mm_abs_epi32(step), _mm_set1_epi32(j << 6)), _mm_set1_epi32(1 << 14)), 15);
     return _mm_sign_epi32(r, step);
 }
 
@@ -891,7 +905,7 @@ __attribute__((target("avx2"))) inline __m128i twice16(__m128i v)
 
 // planChunk's tests of four chunks (the operations of planChunksAvx2<false>, lane by lane
 // the same as planChunk's) from their first pixels' positions, their last pixels' offsets
-// from them and their steps (fixedStep), into plan entries [at, at + 4) with the rest of
+// from them and their steps (stepOfM0, stepOfM3), into plan entries [at, at + 4) with the rest of
 // MeshPlan's. `taken`: the chunks the window trick takes at all (else refused whatever
 // their plan; their steps are 0).
 template <int C>
@@ -907,8 +921,8 @@ __attribute__((target("avx2"), always_inline)) inline void planMeshFour(const Pl
     const __m128i fraction = _mm_set1_epi32(1023);
     const __m128i row_bytes = _mm_set1_epi32(src.width * channels - 16);
     const __m128i height = _mm_set1_epi32(src.height), one = _mm_set1_epi32(1), zero_i = _mm_setzero_si128();
-    const __m128i last_window = chunkOffsets(step_x, lanePixel(C, C - 1, 8));
-    const __m128i last_offset_y = chunkOffsets(step_y, lanePixel(C, C - 1, 15));
+    const __m128i last_window = offsetsX(step_x, lanePixel(C, C - 1, 8));
+    const __m128i last_offset_y = offsetsY(step_y, lanePixel(C, C - 1, 15));
     const __m128i qx = _mm256_cvttpd_epi32(_mm256_mul_pd(sx0, k1024));
     const __m128i qy = _mm256_cvttpd_epi32(_mm256_mul_pd(sy0, k1024));
     const __m128i ix0 = _mm_srai_epi32(qx, 10), iy0 = _mm_srai_epi32(qy, 10);
@@ -933,20 +947,19 @@ __attribute__((target("avx2"), always_inline)) inline void planMeshFour(const Pl
                      _mm_cmpgt_epi32(zero_i, _mm_add_epi32(iy0, ky_min))));
     _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.vector_ok + at),
                      _mm_and_si128(taken, _mm_andnot_si128(refused, mask32(inside))));
-    // What the kernel broadcasts (the steps of a chunk taken are >= 0 for x).
-    const __m128i low16 = _mm_set1_epi32(0xffff);
-    const __m128i step_y_abs = _mm_abs_epi32(step_y);
+    // What the kernel broadcasts.
+    const __m128i step_x_b = _mm_srai_epi32(_mm_add_epi32(step_x, _mm_set1_epi32(1 << 14)), 15);
     _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.frx2 + at), twice16(frx));
     _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.fry2 + at), twice16(fry));
-    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x_high2 + at), twice16(_mm_srai_epi32(step_x, 16)));
-    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x_low2 + at), twice16(_mm_and_si128(step_x, low16)));
-    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y_high2 + at), twice16(_mm_srli_epi32(step_y_abs, 16)));
-    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y_low2 + at), twice16(_mm_and_si128(step_y_abs, low16)));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x_b2 + at), twice16(step_x_b));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x_a2 + at),
+                     twice16(_mm_sub_epi32(step_x, _mm_slli_epi32(step_x_b, 15))));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y_abs2 + at), twice16(_mm_abs_epi32(step_y)));
     _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y_sign2 + at),
                      _mm_or_si128(_mm_cmpgt_epi32(zero_i, step_y), _mm_set1_epi32(0x00010001)));
     for (int v = 0; v < C; ++v)
         for (int h = 0; h < 2; ++h) {
-            const __m128i k = _mm_srai_epi32(_mm_add_epi32(frx, chunkOffsets(step_x, lanePixel(C, v, 8 * h))), 10);
+            const __m128i k = _mm_srai_epi32(_mm_add_epi32(frx, offsetsX(step_x, lanePixel(C, v, 8 * h))), 10);
             const __m128i pixel = _mm_add_epi32(ix0, k);
             _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.window_byte[v * 2 + h] + at),
                              C == 2 ? _mm_add_epi32(pixel, pixel) : pixel);
@@ -964,7 +977,7 @@ __attribute__((target("avx2"))) inline void planMeshRowAvx2(const PlaneSpan &src
     const __m256d inv_cell = _mm256_set1_pd(1.0 / kChunk);  // exact: as the division
     const __m256d zero = _mm256_setzero_pd(), max_m0 = _mm256_set1_pd(1.25), max_slope = _mm256_set1_pd(0.9);
     const __m256d last = _mm256_set1_pd(double(kChunk - 1)), sign_bit = _mm256_set1_pd(-0.0);
-    const __m256d scale = _mm256_set1_pd(double(1 << kStepBits));
+    const __m256d scale_x = _mm256_set1_pd(double(1 << kStepXBits)), scale_y = _mm256_set1_pd(double(1 << kStepYBits));
     const __m128i fits = _mm_set1_epi32(chunks.windowFits() ? -1 : 0);
     const double *row_x = chunks.rowX(), *row_y = chunks.rowY();
     for (int c = 0; c < count; c += 4) {
@@ -980,8 +993,8 @@ __attribute__((target("avx2"))) inline void planMeshRowAvx2(const PlaneSpan &src
             _mm256_and_pd(_mm256_cmp_pd(m0, zero, _CMP_GT_OQ), _mm256_cmp_pd(m0, max_m0, _CMP_LE_OQ)),
             _mm256_cmp_pd(slope, max_slope, _CMP_LE_OQ));
         const __m128i ok = _mm_and_si128(fits, mask32(ok_d));
-        const __m128i step_x = _mm_and_si128(ok, fixedSteps(_mm256_mul_pd(m0, scale)));
-        const __m128i step_y = _mm_and_si128(ok, fixedSteps(_mm256_mul_pd(m3, scale)));
+        const __m128i step_x = _mm_and_si128(ok, roundSteps(_mm256_mul_pd(m0, scale_x)));
+        const __m128i step_y = _mm_and_si128(ok, roundSteps(_mm256_mul_pd(m3, scale_y)));
         const __m256d sx0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m0, xs), zero), m2);
         const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), zero), m5);
         planMeshFour<C>(src, sx0, sy0, _mm256_mul_pd(m0, last), _mm256_mul_pd(m3, last), step_x, step_y, ok, plan, c);
@@ -989,7 +1002,7 @@ __attribute__((target("avx2"))) inline void planMeshRowAvx2(const PlaneSpan &src
 }
 
 // The same for any cell from the row's entries (MatrixPerChunk::beginRow; its last window
-// and last offset are chunkOffsets' of its steps).
+// and last offset are offsetsX's and offsetsY's of its steps).
 template <int C>
 __attribute__((target("avx2"))) inline void planMeshChunksAvx2(const PlaneSpan &src, const MatrixPerChunk &chunks,
                                                                MeshPlan &plan, int first, int count)
@@ -1060,18 +1073,18 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
     lanes.one = _mm256_set1_epi16(kOne);
     lanes.next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
     const std::size_t stride = std::size_t(src.stride);
-    // chunkOffset for the 16 lanes of vector v in 16-bit lanes: with |step| = h 2^16 + l,
-    // (j |step| + 2^15) >> 16 = j h + (j l + 2^15) >> 16, and (j l + 2^15) >> 16 =
-    // ((2 j l >> 16) + 1) >> 1 (a floor of a floor), 2 j l >> 16 an unsigned mulhi.
-    __m256i pixel[C], pixel2[C];  // the lanes' pixels j, and 2 j
+    // offsetX, offsetY for the 16 lanes of vector v in 16-bit lanes: the lanes' pixels j and
+    // j 2^6.
+    __m256i pixel[C], pixel_y[C];
     for (int v = 0; v < C; ++v) {
-        alignas(32) std::int16_t j[16];
-        for (int l = 0; l < 16; ++l)
+        alignas(32) std::int16_t j[16], jy[16];
+        for (int l = 0; l < 16; ++l) {
             j[l] = std::int16_t(lanePixel(C, v, l));
+            jy[l] = std::int16_t(lanePixel(C, v, l) << 6);
+        }
         pixel[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(j));
-        pixel2[v] = _mm256_add_epi16(pixel[v], pixel[v]);
+        pixel_y[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(jy));
     }
-    const __m256i one16 = _mm256_set1_epi16(1);
     // Byte shuffle control: each 128-bit half's first 16-bit lane in all its lanes.
     const __m256i first_lane = _mm256_set1_epi16(0x0100);
     const int chunks_in_row = dst_width / kChunk;
@@ -1079,20 +1092,15 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
     const int per_cell = chunks.mesh().cell / kChunk;
     MeshPlan plan;
     // Chunk c's vector v (in 16-bit lanes, not yet packed). Its lane offsets are recomputed
-    // for every chunk (in a mesh of 16-px cells the steps seldom repeat), from the plan's
-    // broadcast values.
+    // for every chunk (in a mesh of 16-px cells the steps seldom repeat) from the plan's
+    // broadcast values: two 16-bit multiplies for x, one for y.
     const auto chunkVector = [&](int c, int v) __attribute__((target("avx2"), always_inline)) {
-        const __m256i offset_x = _mm256_add_epi16(
-            _mm256_mullo_epi16(pixel[v], _mm256_set1_epi32(plan.step_x_high2[c])),
-            _mm256_srli_epi16(_mm256_add_epi16(_mm256_mulhi_epu16(pixel2[v], _mm256_set1_epi32(plan.step_x_low2[c])),
-                                               one16),
-                              1));
-        const __m256i offset_y_abs = _mm256_add_epi16(
-            _mm256_mullo_epi16(pixel[v], _mm256_set1_epi32(plan.step_y_high2[c])),
-            _mm256_srli_epi16(_mm256_add_epi16(_mm256_mulhi_epu16(pixel2[v], _mm256_set1_epi32(plan.step_y_low2[c])),
-                                               one16),
-                              1));
-        const __m256i offset_y = _mm256_sign_epi16(offset_y_abs, _mm256_set1_epi32(plan.step_y_sign2[c]));
+        // j b + ((j a + 2^14) >> 15) = (j (b 2^15 + a) + 2^14) >> 15.
+        const __m256i offset_x =
+            _mm256_add_epi16(_mm256_mullo_epi16(pixel[v], _mm256_set1_epi32(plan.step_x_b2[c])),
+                             _mm256_mulhrs_epi16(pixel[v], _mm256_set1_epi32(plan.step_x_a2[c])));
+        const __m256i offset_y = _mm256_sign_epi16(
+            _mm256_mulhrs_epi16(pixel_y[v], _mm256_set1_epi32(plan.step_y_abs2[c])), _mm256_set1_epi32(plan.step_y_sign2[c]));
         const int ky_last = plan.ky_last[c];
         const std::uint8_t *row = src.data + std::size_t(plan.iy0[c] + std::min(0, ky_last)) * stride;
         return chunkVectorMeshAvx2<C>(row, stride, lanes, offset_x, offset_y,
