@@ -176,24 +176,35 @@ private:
 // cell's first column. Kernels call beginRow, then chunk() for each chunk in order.
 //
 // The lane offsets change with nearly every chunk here, so they come from integers rather
-// than setOffsets' 32 double products: m0 and m3 rounded to 2^-26 px (fixedStep), then
-// j * step rounded to 1/1024 px half away from zero (chunkOffset). That is setOffsets'
-// rounding of j * m * 1024 exactly whenever m is a multiple of 2^-16; else an offset may
-// differ from it by 1/1024 px where j * m * 1024 lies within 2^-12 of a half. Recomputed only
-// when the rounded steps change.
-constexpr int kStepBits = 26;  // 1024 * 2^16
+// than setOffsets' 32 double products, in arithmetic a vector kernel does in a few 16-bit
+// multiplies: m0 rounded to 2^-25 px (stepOfM0: s = m0 2^25, half away from zero) and pixel
+// j's offset (j s + 2^14) >> 15 (offsetX: j m0 1024 rounded half up; the kernel splits s
+// into b 2^15 + a, a in [-2^14, 2^14), and takes j b + pmulhrsw(a, j)); m3 rounded to
+// 2^-19 px (stepOfM3: |m3| <= 0.06, so |s| < 2^15) and the offset sign(s) ((|s| j 2^6 + 2^14)
+// >> 15) (offsetY: pmulhrsw of |s| and j 2^6, the sign applied). That is setOffsets' rounding
+// of j * m * 1024 exactly whenever m0 is a multiple of 2^-25 and m3 of 2^-19; else an
+// offset may differ from it by 1/1024 px where j * m * 1024 lies within 15 2^-16 (x) or
+// 15 2^-10 (y) of a half.
+constexpr int kStepXBits = 25, kStepYBits = 19;
 
-inline int fixedStep(double m)
+inline int roundStep(double v)
 {
-    const double v = m * double(1 << kStepBits);
-    const int i = int(v);  // |m| <= 1.25: in range
+    const int i = int(v);  // |v| <= 1.25 2^25: in range
     const double f = v - double(i);
     return i + (f >= 0.5) - (f <= -0.5);
 }
+inline int stepOfM0(double m0) { return roundStep(m0 * double(1 << kStepXBits)); }
+inline int stepOfM3(double m3) { return roundStep(m3 * double(1 << kStepYBits)); }
 
-inline int chunkOffset(int step, int j)
+// A taken chunk's steps: step_x >= 0 and <= 1.25 2^25, |step_y| < 2^15.
+inline int offsetX(int step, int j)
 {
-    const int r = (j * std::abs(step) + (1 << 15)) >> 16;
+    return (j * step + (1 << 14)) >> 15;
+}
+
+inline int offsetY(int step, int j)
+{
+    const int r = (std::abs(step) * (j << 6) + (1 << 14)) >> 15;
     return step < 0 ? -r : r;
 }
 
@@ -203,10 +214,17 @@ constexpr int lanePixel(int channels, int v, int l)
     return v * (16 / channels) + l / channels;
 }
 
+// Whether the window trick takes a chunk of this matrix (warpPlaneBilinearHandles' bounds,
+// which also keep the offsets and steps in 16 bits).
+inline bool chunkStepsOk(double m0, double m3)
+{
+    return m0 > 0.0 && m0 <= 1.25 && std::abs(m3) * (kChunk - 1) <= 0.9;
+}
+
 class MatrixPerChunk {
 public:
     MatrixPerChunk(const WarpMesh &mesh, int channels, bool window_fits, int chunks_in_row)
-        // The row's nodes with room for beginRowAvx2's groups of 4 chunks (5 nodes).
+        // The row's nodes with room for the AVX2 planner's groups of 4 chunks (5 nodes).
         : mesh_(mesh), row_x_(std::size_t(std::max(mesh.columns, chunks_in_row + 5)), 0.0),
           row_y_(row_x_.size(), 0.0), steps_(laneSteps(kIdentity, channels)), channels_(channels),
           window_fits_(window_fits)
@@ -219,52 +237,57 @@ public:
             v->assign(n, 0);
     }
     const WarpMesh &mesh() const { return mesh_; }
+    int channels() const { return channels_; }
+    bool windowFits() const { return window_fits_; }
 
     // Every chunk's matrix of output row y (chunk c at columns [16 c, 16 c + 16)), and for
-    // those the window trick takes (warpPlaneBilinearHandles' bounds, which also keep the
-    // offsets in 16 bits) its steps.
-    // (Inlined, so that the AVX2 kernel gets it vectorised.)
-    __attribute__((always_inline)) void beginRow(int y, int chunks_in_row)
+    // those the window trick takes (chunkStepsOk) its steps.
+    void beginRow(int y, int chunks_in_row)
     {
         mesh_.rowAt(y, row_x_.data(), row_y_.data());
-        if (mesh_.cell == kChunk) {
-            beginRowOf<kChunk>(chunks_in_row);
-            return;
-        }
         const int per_cell = mesh_.cell / kChunk;
         for (int c = 0, cell = 0, in_cell = 0; c < chunks_in_row; ++c) {
-            setChunk(c, cell, mesh_.cell);
+            setChunk(c, cell);
             if (++in_cell == per_cell) {
                 in_cell = 0;
                 ++cell;
             }
         }
     }
-    // One cell per chunk, the cell a constant (its division a multiplication when exact).
-    template <int Cell>
-    __attribute__((always_inline)) void beginRowOf(int chunks_in_row)
+    // Chunk c's matrix from cell `cell`'s nodes in the row (m1 = m4 = 0).
+    void chunkMatrix(int cell, double m[6]) const
     {
-        for (int c = 0; c < chunks_in_row; ++c)
-            setChunk(c, c, Cell);
-    }
-    // Chunk c's entries from cell `cell`'s nodes (what beginRow computes).
-    __attribute__((always_inline)) void setChunk(int c, int cell, int cell_size)
-    {
+        const int cell_size = mesh_.cell;
         const double x_a = double(cell) * cell_size;
         const double ax = row_x_[std::size_t(cell)], bx = row_x_[std::size_t(cell) + 1];
         const double ay = row_y_[std::size_t(cell)], by = row_y_[std::size_t(cell) + 1];
-        const double m0 = (bx - ax) / cell_size, m3 = (by - ay) / cell_size;
-        m0_[std::size_t(c)] = m0;
-        m2_[std::size_t(c)] = ax - m0 * x_a;
-        m3_[std::size_t(c)] = m3;
-        m5_[std::size_t(c)] = ay - m3 * x_a;
-        const bool ok = window_fits_ && m0 > 0.0 && m0 <= 1.25 && std::abs(m3) * (kChunk - 1) <= 0.9;
+        // A 16-px cell's division as a multiplication (the same doubles).
+        const double inv_cell = cell_size == kChunk ? 1.0 / kChunk : 0.0;
+        const double m0 = inv_cell != 0.0 ? (bx - ax) * inv_cell : (bx - ax) / cell_size;
+        const double m3 = inv_cell != 0.0 ? (by - ay) * inv_cell : (by - ay) / cell_size;
+        m[0] = m0;
+        m[1] = 0.0;
+        m[2] = ax - m0 * x_a;
+        m[3] = m3;
+        m[4] = 0.0;
+        m[5] = ay - m3 * x_a;
+    }
+    // Chunk c's entries from cell `cell`'s nodes (what beginRow computes).
+    void setChunk(int c, int cell)
+    {
+        double m[6];
+        chunkMatrix(cell, m);
+        m0_[std::size_t(c)] = m[0];
+        m2_[std::size_t(c)] = m[2];
+        m3_[std::size_t(c)] = m[3];
+        m5_[std::size_t(c)] = m[5];
+        const bool ok = window_fits_ && chunkStepsOk(m[0], m[3]);
         vector_ok_[std::size_t(c)] = ok;
-        const int step_x = ok ? fixedStep(m0) : 0, step_y = ok ? fixedStep(m3) : 0;
+        const int step_x = ok ? stepOfM0(m[0]) : 0, step_y = ok ? stepOfM3(m[3]) : 0;
         step_x_[std::size_t(c)] = step_x;
         step_y_[std::size_t(c)] = step_y;
-        last_window_[std::size_t(c)] = chunkOffset(step_x, lanePixel(channels_, channels_ - 1, 8));
-        last_offset_y_[std::size_t(c)] = chunkOffset(step_y, lanePixel(channels_, channels_ - 1, 15));
+        last_window_[std::size_t(c)] = offsetX(step_x, lanePixel(channels_, channels_ - 1, 8));
+        last_offset_y_[std::size_t(c)] = offsetY(step_y, lanePixel(channels_, channels_ - 1, 15));
     }
     // Chunk c's matrix.
     void matrix(int c, double m[6]) const
@@ -278,7 +301,7 @@ public:
     }
     // Whether a vector kernel may take chunk c (else: per pixel with its matrix).
     bool vectorOk(int c) const { return vector_ok_[std::size_t(c)] != 0; }
-    // Chunk c's steps (fixedStep of m0, m3) and what planChunk reads of its lanes: the last
+    // Chunk c's steps (stepOfM0, stepOfM3) and what planChunk reads of its lanes: the last
     // window's offset and the last pixel's vertical offset.
     int stepX(int c) const { return step_x_[std::size_t(c)]; }
     int stepY(int c) const { return step_y_[std::size_t(c)]; }
@@ -292,8 +315,8 @@ public:
         if (!(lanes_valid_ && step_x == lanes_x_ && step_y == lanes_y_)) {
             for (int v = 0; v < channels_; ++v)
                 for (int l = 0; l < 16; ++l) {
-                    steps_.offset_x[v][l] = std::int16_t(chunkOffset(step_x, lanePixel(channels_, v, l)));
-                    steps_.offset_y[v][l] = std::int16_t(chunkOffset(step_y, lanePixel(channels_, v, l)));
+                    steps_.offset_x[v][l] = std::int16_t(offsetX(step_x, lanePixel(channels_, v, l)));
+                    steps_.offset_y[v][l] = std::int16_t(offsetY(step_y, lanePixel(channels_, v, l)));
                 }
             lanes_x_ = step_x;
             lanes_y_ = step_y;
@@ -304,15 +327,19 @@ public:
     // The lane layout (channel, half), the same for every chunk.
     const LaneSteps &layout() const { return steps_; }
 #ifdef UAVSTAB_HAVE_X86
-    // beginRow, four chunks at a time in double vectors for one-chunk cells: the same
-    // operations, so the same entries.
-    void beginRowAvx2(int y, int chunks_in_row);
+    // Only the row's node positions (rowAt's doubles), for the AVX2 planner of one-chunk
+    // cells, which derives each chunk's entries itself.
+    void beginRowNodesAvx2(int y);
 #endif
-    // The row's arrays, for the AVX2 planner.
+    // The row's node positions and arrays, for the AVX2 planners.
+    const double *rowX() const { return row_x_.data(); }
+    const double *rowY() const { return row_y_.data(); }
     const double *m0() const { return m0_.data(); }
     const double *m2() const { return m2_.data(); }
     const double *m3() const { return m3_.data(); }
     const double *m5() const { return m5_.data(); }
+    const int *stepsX() const { return step_x_.data(); }
+    const int *stepsY() const { return step_y_.data(); }
     const int *lastWindows() const { return last_window_.data(); }
     const int *lastOffsetsY() const { return last_offset_y_.data(); }
     const int *vectorOks() const { return vector_ok_.data(); }
@@ -361,6 +388,21 @@ struct RowPlan {
     alignas(32) int fry[kPlanChunks + 4];
     alignas(32) int ky_last[kPlanChunks + 4];
     alignas(32) int vector_ok[kPlanChunks + 4];  // -1: a vector kernel takes the chunk
+};
+
+// The mesh warp's plan: besides planChunk's, what the AVX2 kernel would otherwise derive
+// per chunk in general registers. Each 16-bit value twice in an int (both halves), so that
+// the kernel broadcasts it with one load: frx, fry; stepOfM0 split into b 2^15 + a; |stepY|
+// and its sign (+-1); and the byte each window of vector v, half h starts at in its source
+// rows ((ix0 + k) * C, k = the window's first tap), [v * 2 + h].
+struct MeshPlan : RowPlan {
+    alignas(32) int frx2[kPlanChunks + 4];
+    alignas(32) int fry2[kPlanChunks + 4];
+    alignas(32) int step_x_b2[kPlanChunks + 4];
+    alignas(32) int step_x_a2[kPlanChunks + 4];
+    alignas(32) int step_y_abs2[kPlanChunks + 4];
+    alignas(32) int step_y_sign2[kPlanChunks + 4];
+    alignas(32) int window_byte[4][kPlanChunks + 4];
 };
 
 // The chunks [lo, hi) of row y that pass every one of planChunk's tests (all taps inside,
@@ -527,7 +569,7 @@ struct Avx2RowSteps {
 // (planChunk's ix0, iy0, frx, fry and the last pixel's row step ky_last): each 128-bit half
 // reads one 16-byte window per source row it crosses, and a byte shuffle picks the taps.
 template <int C>
-__attribute__((target("avx2"))) inline __m256i chunkVectorAvx2(const std::uint8_t *src_data, std::size_t stride,
+__attribute__((target("avx2"), always_inline)) inline __m256i chunkVectorAvx2(const std::uint8_t *src_data, std::size_t stride,
                                                                const Avx2Lanes &lanes, const Avx2RowSteps &steps,
                                                                int ix0, int iy0, int frx, int fry, int ky_last)
 {
@@ -803,122 +845,219 @@ void warpMeshRowsScalar(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
 
 #ifdef UAVSTAB_HAVE_X86
 
-__attribute__((target("avx2"))) void MatrixPerChunk::beginRowAvx2(int y, int chunks_in_row)
+__attribute__((target("avx2"))) void MatrixPerChunk::beginRowNodesAvx2(int y)
 {
-    if (mesh_.cell != kChunk) {
-        beginRow(y, chunks_in_row);
-        return;
+    int j;
+    double t;
+    mesh_.rowCell(y, j, t);
+    const std::size_t columns = std::size_t(mesh_.columns);
+    const double *top_x = mesh_.x.data() + std::size_t(j) * columns, *top_y = mesh_.y.data() + std::size_t(j) * columns;
+    const double *bottom_x = top_x + columns, *bottom_y = top_y + columns;
+    const __m256d tv = _mm256_set1_pd(t);
+    std::size_t i = 0;
+    // rowAt's expressions.
+    for (; i + 4 <= columns; i += 4) {
+        const __m256d tx = _mm256_loadu_pd(top_x + i), ty = _mm256_loadu_pd(top_y + i);
+        _mm256_storeu_pd(row_x_.data() + i, _mm256_add_pd(tx, _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(bottom_x + i), tx), tv)));
+        _mm256_storeu_pd(row_y_.data() + i, _mm256_add_pd(ty, _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(bottom_y + i), ty), tv)));
     }
-    mesh_.rowAt(y, row_x_.data(), row_y_.data());
-    const __m256d inv_cell = _mm256_set1_pd(1.0 / kChunk);  // exact: as the division
-    const __m256d zero = _mm256_setzero_pd(), max_m0 = _mm256_set1_pd(1.25), max_slope = _mm256_set1_pd(0.9);
-    const __m256d last = _mm256_set1_pd(double(kChunk - 1)), sign_bit = _mm256_set1_pd(-0.0);
-    const __m256d scale = _mm256_set1_pd(double(1 << kStepBits)), half = _mm256_set1_pd(0.5);
-    const __m256d minus_half = _mm256_set1_pd(-0.5);
-    const __m128i fits = _mm_set1_epi32(window_fits_ ? -1 : 0);
-    const __m128i round = _mm_set1_epi32(1 << 15);
-    const __m128i window_pixel = _mm_set1_epi32(lanePixel(channels_, channels_ - 1, 8));
-    const __m128i last_pixel = _mm_set1_epi32(lanePixel(channels_, channels_ - 1, 15));
-    const __m256i low_halves = _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0);
-    // A double mask's lanes as 32-bit ones.
-    const auto mask32 = [&](__m256d mask) __attribute__((target("avx2"))) {
-        return _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(mask), low_halves));
-    };
-    const auto fixedSteps = [&](__m256d m) __attribute__((target("avx2"))) {
-        const __m256d v = _mm256_mul_pd(m, scale);
-        const __m128i i = _mm256_cvttpd_epi32(v);
-        const __m256d f = _mm256_sub_pd(v, _mm256_cvtepi32_pd(i));
-        // i + (f >= 0.5) - (f <= -0.5): a true mask is -1.
-        return _mm_add_epi32(_mm_sub_epi32(i, mask32(_mm256_cmp_pd(f, half, _CMP_GE_OQ))),
-                             mask32(_mm256_cmp_pd(f, minus_half, _CMP_LE_OQ)));
-    };
-    const auto offsets = [&](__m128i step, __m128i pixel) __attribute__((target("avx2"))) {
-        const __m128i r = _mm_srli_epi32(_mm_add_epi32(_mm_mullo_epi32(pixel, _mm_abs_epi32(step)), round), 16);
-        return _mm_sign_epi32(r, step);
-    };
-    for (int c = 0; c < chunks_in_row; c += 4) {
-        const __m256d x_a = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(c * kChunk), _mm_setr_epi32(0, 16, 32, 48)));
-        const __m256d ax = _mm256_loadu_pd(row_x_.data() + c), bx = _mm256_loadu_pd(row_x_.data() + c + 1);
-        const __m256d ay = _mm256_loadu_pd(row_y_.data() + c), by = _mm256_loadu_pd(row_y_.data() + c + 1);
-        const __m256d m0 = _mm256_mul_pd(_mm256_sub_pd(bx, ax), inv_cell);
-        const __m256d m3 = _mm256_mul_pd(_mm256_sub_pd(by, ay), inv_cell);
-        _mm256_storeu_pd(m0_.data() + c, m0);
-        _mm256_storeu_pd(m2_.data() + c, _mm256_sub_pd(ax, _mm256_mul_pd(m0, x_a)));
-        _mm256_storeu_pd(m3_.data() + c, m3);
-        _mm256_storeu_pd(m5_.data() + c, _mm256_sub_pd(ay, _mm256_mul_pd(m3, x_a)));
-        const __m256d slope = _mm256_mul_pd(_mm256_andnot_pd(sign_bit, m3), last);
-        const __m256d ok_d = _mm256_and_pd(
-            _mm256_and_pd(_mm256_cmp_pd(m0, zero, _CMP_GT_OQ), _mm256_cmp_pd(m0, max_m0, _CMP_LE_OQ)),
-            _mm256_cmp_pd(slope, max_slope, _CMP_LE_OQ));
-        const __m128i ok = _mm_and_si128(fits, mask32(ok_d));
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(vector_ok_.data() + c), _mm_and_si128(ok, _mm_set1_epi32(1)));
-        const __m128i step_x = _mm_and_si128(ok, fixedSteps(m0)), step_y = _mm_and_si128(ok, fixedSteps(m3));
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(step_x_.data() + c), step_x);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(step_y_.data() + c), step_y);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(last_window_.data() + c), offsets(step_x, window_pixel));
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(last_offset_y_.data() + c), offsets(step_y, last_pixel));
+    for (; i < columns; ++i) {
+        row_x_[i] = top_x[i] + (bottom_x[i] - top_x[i]) * t;
+        row_y_[i] = top_y[i] + (bottom_y[i] - top_y[i]) * t;
     }
 }
 
-// planChunk for chunks [0, chunks) of a mesh row, four at a time, each with its own matrix
-// (m1 = m4 = 0) and lane offsets: the operations of planChunksAvx2<false>, lane by lane the
-// same as planChunk's, so the same decisions. A chunk the window trick does not take
-// (vector_ok 0) is refused whatever its plan.
-__attribute__((target("avx2"))) inline void planMeshChunksAvx2(const PlaneSpan &src, int channels,
-                                                               const MatrixPerChunk &chunks, RowPlan &plan, int first,
-                                                               int count)
+// A double mask's four 64-bit lanes as 32-bit ones.
+__attribute__((target("avx2"))) inline __m128i mask32(__m256d mask)
 {
-    const __m256d zero = _mm256_setzero_pd(), last = _mm256_set1_pd(double(kChunk - 1));
+    return _mm256_castsi256_si128(
+        _mm256_permutevar8x32_epi32(_mm256_castpd_si256(mask), _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0)));
+}
+
+// roundStep of four doubles.
+__attribute__((target("avx2"))) inline __m128i roundSteps(__m256d v)
+{
+    const __m128i i = _mm256_cvttpd_epi32(v);
+    const __m256d f = _mm256_sub_pd(v, _mm256_cvtepi32_pd(i));
+    // i + (f >= 0.5) - (f <= -0.5): a true mask is -1.
+    return _mm_add_epi32(_mm_sub_epi32(i, mask32(_mm256_cmp_pd(f, _mm256_set1_pd(0.5), _CMP_GE_OQ))),
+                         mask32(_mm256_cmp_pd(f, _mm256_set1_pd(-0.5), _CMP_LE_OQ)));
+}
+
+// offsetX, offsetY of four steps for pixel j.
+__attribute__((target("avx2"))) inline __m128i offsetsX(__m128i step, int j)
+{
+    return _mm_srai_epi32(_mm_add_epi32(_mm_mullo_epi32(step, _mm_set1_epi32(j)), _mm_set1_epi32(1 << 14)), 15);
+}
+
+__attribute__((target("avx2"))) inline __m128i offsetsY(__m128i step, int j)
+{
+    const __m128i r = _mm_srli_epi32(
+        _mm_add_epi32(_mm_mullo_epi32(_mm_abs_epi32(step), _mm_set1_epi32(j << 6)), _mm_set1_epi32(1 << 14)), 15);
+    return _mm_sign_epi32(r, step);
+}
+
+// A 16-bit value in both halves of each 32-bit lane.
+__attribute__((target("avx2"))) inline __m128i twice16(__m128i v)
+{
+    return _mm_or_si128(_mm_and_si128(v, _mm_set1_epi32(0xffff)), _mm_slli_epi32(v, 16));
+}
+
+// planChunk's tests of four chunks (the operations of planChunksAvx2<false>, lane by lane
+// the same as planChunk's) from their first pixels' positions, their last pixels' offsets
+// from them and their steps (stepOfM0, stepOfM3), into plan entries [at, at + 4) with the rest of
+// MeshPlan's. `taken`: the chunks the window trick takes at all (else refused whatever
+// their plan; their steps are 0).
+template <int C>
+__attribute__((target("avx2"), always_inline)) inline void planMeshFour(const PlaneSpan &src, __m256d sx0,
+                                                                       __m256d sy0, __m256d last_x, __m256d last_y,
+                                                                       __m128i step_x, __m128i step_y,
+                                                                       __m128i taken, MeshPlan &plan, int at)
+{
+    constexpr int channels = C;
+    const __m256d zero = _mm256_setzero_pd();
     const __m256d width1 = _mm256_set1_pd(double(src.width - 1)), height1 = _mm256_set1_pd(double(src.height - 1));
     const __m256d k1024 = _mm256_set1_pd(1024.0);
     const __m128i fraction = _mm_set1_epi32(1023);
     const __m128i row_bytes = _mm_set1_epi32(src.width * channels - 16);
     const __m128i height = _mm_set1_epi32(src.height), one = _mm_set1_epi32(1), zero_i = _mm_setzero_si128();
+    const __m128i last_window = offsetsX(step_x, lanePixel(C, C - 1, 8));
+    const __m128i last_offset_y = offsetsY(step_y, lanePixel(C, C - 1, 15));
+    const __m128i qx = _mm256_cvttpd_epi32(_mm256_mul_pd(sx0, k1024));
+    const __m128i qy = _mm256_cvttpd_epi32(_mm256_mul_pd(sy0, k1024));
+    const __m128i ix0 = _mm_srai_epi32(qx, 10), iy0 = _mm_srai_epi32(qy, 10);
+    const __m128i frx = _mm_and_si128(qx, fraction), fry = _mm_and_si128(qy, fraction);
+    const __m128i ky_last = _mm_srai_epi32(_mm_add_epi32(fry, last_offset_y), 10);
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ix0 + at), ix0);
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.iy0 + at), iy0);
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ky_last + at), ky_last);
+    const __m256d sx1 = _mm256_add_pd(sx0, last_x), sy1 = _mm256_add_pd(sy0, last_y);
+    const __m256d inside = _mm256_and_pd(
+        _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sx0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sx1, zero, _CMP_GE_OQ)),
+                      _mm256_and_pd(_mm256_cmp_pd(sx0, width1, _CMP_LT_OQ), _mm256_cmp_pd(sx1, width1, _CMP_LT_OQ))),
+        _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sy0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sy1, zero, _CMP_GE_OQ)),
+                      _mm256_and_pd(_mm256_cmp_pd(sy0, height1, _CMP_LT_OQ), _mm256_cmp_pd(sy1, height1, _CMP_LT_OQ))));
+    const __m128i ky_min = _mm_min_epi32(zero_i, ky_last), ky_max = _mm_max_epi32(zero_i, ky_last);
+    const __m128i window_end =
+        _mm_mullo_epi32(_mm_add_epi32(ix0, _mm_srai_epi32(_mm_add_epi32(frx, last_window), 10)),
+                        _mm_set1_epi32(channels));
+    const __m128i refused = _mm_or_si128(
+        _mm_or_si128(_mm_cmpgt_epi32(window_end, row_bytes), _mm_cmpgt_epi32(_mm_sub_epi32(ky_max, ky_min), one)),
+        _mm_or_si128(_mm_cmpgt_epi32(_mm_add_epi32(_mm_add_epi32(iy0, ky_max), one), _mm_sub_epi32(height, one)),
+                     _mm_cmpgt_epi32(zero_i, _mm_add_epi32(iy0, ky_min))));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.vector_ok + at),
+                     _mm_and_si128(taken, _mm_andnot_si128(refused, mask32(inside))));
+    // What the kernel broadcasts.
+    const __m128i step_x_b = _mm_srai_epi32(_mm_add_epi32(step_x, _mm_set1_epi32(1 << 14)), 15);
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.frx2 + at), twice16(frx));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.fry2 + at), twice16(fry));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x_b2 + at), twice16(step_x_b));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_x_a2 + at),
+                     twice16(_mm_sub_epi32(step_x, _mm_slli_epi32(step_x_b, 15))));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y_abs2 + at), twice16(_mm_abs_epi32(step_y)));
+    _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.step_y_sign2 + at),
+                     _mm_or_si128(_mm_cmpgt_epi32(zero_i, step_y), _mm_set1_epi32(0x00010001)));
+    for (int v = 0; v < C; ++v)
+        for (int h = 0; h < 2; ++h) {
+            const __m128i k = _mm_srai_epi32(_mm_add_epi32(frx, offsetsX(step_x, lanePixel(C, v, 8 * h))), 10);
+            const __m128i pixel = _mm_add_epi32(ix0, k);
+            _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.window_byte[v * 2 + h] + at),
+                             C == 2 ? _mm_add_epi32(pixel, pixel) : pixel);
+        }
+}
+
+// The plan of chunks [first, first + count) of a mesh row in one-chunk cells, four at a
+// time, from the row's nodes (beginRowNodesAvx2): each chunk's matrix, steps and tests in
+// the operations of MatrixPerChunk::setChunk and planChunk, so the same entries and
+// decisions (m1 = m4 = 0: planChunk's m1 y adds zero, as here).
+template <int C>
+__attribute__((target("avx2"))) inline void planMeshRowAvx2(const PlaneSpan &src, const MatrixPerChunk &chunks,
+                                                            MeshPlan &plan, int first, int count)
+{
+    const __m256d inv_cell = _mm256_set1_pd(1.0 / kChunk);  // exact: as the division
+    const __m256d zero = _mm256_setzero_pd(), max_m0 = _mm256_set1_pd(1.25), max_slope = _mm256_set1_pd(0.9);
+    const __m256d last = _mm256_set1_pd(double(kChunk - 1)), sign_bit = _mm256_set1_pd(-0.0);
+    const __m256d scale_x = _mm256_set1_pd(double(1 << kStepXBits)), scale_y = _mm256_set1_pd(double(1 << kStepYBits));
+    const __m128i fits = _mm_set1_epi32(chunks.windowFits() ? -1 : 0);
+    const double *row_x = chunks.rowX(), *row_y = chunks.rowY();
+    for (int c = 0; c < count; c += 4) {
+        const int k = first + c;
+        const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(k * kChunk), _mm_setr_epi32(0, 16, 32, 48)));
+        const __m256d ax = _mm256_loadu_pd(row_x + k), bx = _mm256_loadu_pd(row_x + k + 1);
+        const __m256d ay = _mm256_loadu_pd(row_y + k), by = _mm256_loadu_pd(row_y + k + 1);
+        const __m256d m0 = _mm256_mul_pd(_mm256_sub_pd(bx, ax), inv_cell);
+        const __m256d m3 = _mm256_mul_pd(_mm256_sub_pd(by, ay), inv_cell);
+        const __m256d m2 = _mm256_sub_pd(ax, _mm256_mul_pd(m0, xs)), m5 = _mm256_sub_pd(ay, _mm256_mul_pd(m3, xs));
+        const __m256d slope = _mm256_mul_pd(_mm256_andnot_pd(sign_bit, m3), last);
+        const __m256d ok_d = _mm256_and_pd(
+            _mm256_and_pd(_mm256_cmp_pd(m0, zero, _CMP_GT_OQ), _mm256_cmp_pd(m0, max_m0, _CMP_LE_OQ)),
+            _mm256_cmp_pd(slope, max_slope, _CMP_LE_OQ));
+        const __m128i ok = _mm_and_si128(fits, mask32(ok_d));
+        const __m128i step_x = _mm_and_si128(ok, roundSteps(_mm256_mul_pd(m0, scale_x)));
+        const __m128i step_y = _mm_and_si128(ok, roundSteps(_mm256_mul_pd(m3, scale_y)));
+        const __m256d sx0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m0, xs), zero), m2);
+        const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), zero), m5);
+        planMeshFour<C>(src, sx0, sy0, _mm256_mul_pd(m0, last), _mm256_mul_pd(m3, last), step_x, step_y, ok, plan, c);
+    }
+}
+
+// The same for any cell from the row's entries (MatrixPerChunk::beginRow; its last window
+// and last offset are offsetsX's and offsetsY's of its steps).
+template <int C>
+__attribute__((target("avx2"))) inline void planMeshChunksAvx2(const PlaneSpan &src, const MatrixPerChunk &chunks,
+                                                               MeshPlan &plan, int first, int count)
+{
+    const __m256d zero = _mm256_setzero_pd(), last = _mm256_set1_pd(double(kChunk - 1));
+    const __m128i zero_i = _mm_setzero_si128();
     for (int c = 0; c < count; c += 4) {
         const int k = first + c;
         const __m256d m0 = _mm256_loadu_pd(chunks.m0() + k), m3 = _mm256_loadu_pd(chunks.m3() + k);
         const __m256d m2 = _mm256_loadu_pd(chunks.m2() + k), m5 = _mm256_loadu_pd(chunks.m5() + k);
         const __m256d xs = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(k * kChunk), _mm_setr_epi32(0, 16, 32, 48)));
-        // planChunk: m0 x + m1 y + m2 with m1 y = 0 (adding it changes nothing).
         const __m256d sx0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m0, xs), zero), m2);
         const __m256d sy0 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m3, xs), zero), m5);
-        const __m128i qx = _mm256_cvttpd_epi32(_mm256_mul_pd(sx0, k1024));
-        const __m128i qy = _mm256_cvttpd_epi32(_mm256_mul_pd(sy0, k1024));
-        const __m128i ix0 = _mm_srai_epi32(qx, 10), iy0 = _mm_srai_epi32(qy, 10);
-        const __m128i frx = _mm_and_si128(qx, fraction), fry = _mm_and_si128(qy, fraction);
-        const __m128i last_window = _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.lastWindows() + k));
-        const __m128i last_offset_y = _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.lastOffsetsY() + k));
-        const __m128i ky_last = _mm_srai_epi32(_mm_add_epi32(fry, last_offset_y), 10);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ix0 + c), ix0);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.iy0 + c), iy0);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.frx + c), frx);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.fry + c), fry);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.ky_last + c), ky_last);
-        const __m256d sx1 = _mm256_add_pd(sx0, _mm256_mul_pd(m0, last)), sy1 = _mm256_add_pd(sy0, _mm256_mul_pd(m3, last));
-        const __m256d inside = _mm256_and_pd(
-            _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sx0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sx1, zero, _CMP_GE_OQ)),
-                          _mm256_and_pd(_mm256_cmp_pd(sx0, width1, _CMP_LT_OQ), _mm256_cmp_pd(sx1, width1, _CMP_LT_OQ))),
-            _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(sy0, zero, _CMP_GE_OQ), _mm256_cmp_pd(sy1, zero, _CMP_GE_OQ)),
-                          _mm256_and_pd(_mm256_cmp_pd(sy0, height1, _CMP_LT_OQ), _mm256_cmp_pd(sy1, height1, _CMP_LT_OQ))));
-        const __m128i ky_min = _mm_min_epi32(zero_i, ky_last), ky_max = _mm_max_epi32(zero_i, ky_last);
-        const __m128i window_end =
-            _mm_mullo_epi32(_mm_add_epi32(ix0, _mm_srai_epi32(_mm_add_epi32(frx, last_window), 10)),
-                            _mm_set1_epi32(channels));
-        const __m128i refused = _mm_or_si128(
-            _mm_or_si128(_mm_cmpgt_epi32(window_end, row_bytes), _mm_cmpgt_epi32(_mm_sub_epi32(ky_max, ky_min), one)),
-            _mm_or_si128(_mm_cmpgt_epi32(_mm_add_epi32(_mm_add_epi32(iy0, ky_max), one), _mm_sub_epi32(height, one)),
-                         _mm_cmpgt_epi32(zero_i, _mm_add_epi32(iy0, ky_min))));
-        const __m128i inside32 = _mm256_castsi256_si128(
-            _mm256_permutevar8x32_epi32(_mm256_castpd_si256(inside), _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0)));
         const __m128i taken = _mm_cmpgt_epi32(
             _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.vectorOks() + k)), zero_i);
-        _mm_storeu_si128(reinterpret_cast<__m128i *>(plan.vector_ok + c),
-                         _mm_and_si128(taken, _mm_andnot_si128(refused, inside32)));
+        planMeshFour<C>(src, sx0, sy0, _mm256_mul_pd(m0, last), _mm256_mul_pd(m3, last),
+                        _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.stepsX() + k)),
+                        _mm_loadu_si128(reinterpret_cast<const __m128i *>(chunks.stepsY() + k)), taken, plan, c);
     }
 }
 
+// One vector of a mesh chunk from its plan (MeshPlan), with chunkVectorAvx2's arithmetic:
+// the lanes' offsets and the halves' window starts given; `row` the chunk's first source row.
+template <int C>
+__attribute__((target("avx2"), always_inline)) inline __m256i chunkVectorMeshAvx2(
+    const std::uint8_t *row, std::size_t stride, const Avx2Lanes &lanes, __m256i offset_x, __m256i offset_y,
+    __m256i window, __m256i frx_v, __m256i fry_v, int byte0, int byte1, int ky_last)
+{
+    const __m256i rel_x = _mm256_add_epi16(frx_v, offset_x);
+    const __m256i rel_y = _mm256_add_epi16(fry_v, offset_y);
+    const __m256i kx = _mm256_srli_epi16(rel_x, 10);
+    const __m256i fx = _mm256_and_si256(_mm256_srli_epi16(rel_x, 10 - kFracBits), lanes.frac_mask);
+    const __m256i fy = _mm256_and_si256(_mm256_srai_epi16(rel_y, 10 - kFracBits), lanes.frac_mask);
+    const __m256i window_k = _mm256_srli_epi16(_mm256_add_epi16(frx_v, window), 10);
+    __m256i left = _mm256_sub_epi16(kx, window_k);
+    if (C == 2) {
+        left = _mm256_add_epi16(left, left);
+        left = _mm256_add_epi16(left, lanes.channel);
+    }
+    const __m256i ctrl = _mm256_add_epi16(left, _mm256_add_epi16(_mm256_slli_epi16(left, 8), lanes.next_tap));
+    const __m256i wx = _mm256_or_si256(_mm256_sub_epi16(lanes.one, fx), _mm256_slli_epi16(fx, 8));
+    const __m256i fy_scaled = _mm256_slli_epi16(fy, 9);
+    __m256i value = interpolateRows(row, row + stride, byte0, byte1, ctrl, wx, fy_scaled);
+    if (ky_last != 0) {
+        const __m256i lower = interpolateRows(row + stride, row + 2 * stride, byte0, byte1, ctrl, wx, fy_scaled);
+        const __m256i ky = _mm256_srai_epi16(rel_y, 10);
+        value = _mm256_blendv_epi8(value, lower,
+                                   _mm256_cmpeq_epi16(ky, _mm256_set1_epi16(std::int16_t(std::max(0, ky_last)))));
+    }
+    return _mm256_srli_epi16(_mm256_add_epi16(value, _mm256_set1_epi16(kOne / 2)), kFracBits);
+}
+
 // warpRowsAvx2 with a matrix per chunk: the row's chunks planned with their own matrices
-// (planMeshChunksAvx2), their bytes from chunkVectorAvx2 with their own offsets.
+// (planMeshRowAvx2, planMeshChunksAvx2), their bytes from chunkVectorMeshAvx2 with their
+// own offsets.
 template <int C>
 __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
                                                       int dst_width, int row_begin, int row_end,
@@ -926,7 +1065,6 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
                                                       const std::uint8_t border[4])
 {
     constexpr int channels = C;
-    constexpr int H = 8 / C;
     Avx2Lanes lanes;
     lanes.channel = _mm256_load_si256(reinterpret_cast<const __m256i *>(chunks.layout().channel));
     lanes.high_mask = _mm256_sub_epi16(
@@ -935,65 +1073,73 @@ __attribute__((target("avx2"))) void warpMeshRowsAvx2(const PlaneSpan &src, std:
     lanes.one = _mm256_set1_epi16(kOne);
     lanes.next_tap = _mm256_set1_epi16(std::int16_t(channels << 8));
     const std::size_t stride = std::size_t(src.stride);
-    Avx2RowSteps row_steps[C] = {};
-    // chunkOffset for the 16 lanes of vector v in 16-bit lanes: with |step| = h 2^16 + l,
-    // (j |step| + 2^15) >> 16 = j h + (j l + 2^15) >> 16, and (j l + 2^15) >> 16 =
-    // ((2 j l >> 16) + 1) >> 1 (a floor of a floor), 2 j l >> 16 an unsigned mulhi.
-    __m256i pixel[C], pixel2[C];  // the lanes' pixels j, and 2 j
+    // offsetX, offsetY for the 16 lanes of vector v in 16-bit lanes: the lanes' pixels j and
+    // j 2^6.
+    __m256i pixel[C], pixel_y[C];
     for (int v = 0; v < C; ++v) {
-        alignas(32) std::int16_t j[16];
-        for (int l = 0; l < 16; ++l)
+        alignas(32) std::int16_t j[16], jy[16];
+        for (int l = 0; l < 16; ++l) {
             j[l] = std::int16_t(lanePixel(C, v, l));
+            jy[l] = std::int16_t(lanePixel(C, v, l) << 6);
+        }
         pixel[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(j));
-        pixel2[v] = _mm256_add_epi16(pixel[v], pixel[v]);
+        pixel_y[v] = _mm256_load_si256(reinterpret_cast<const __m256i *>(jy));
     }
-    const __m256i one16 = _mm256_set1_epi16(1);
-    const auto offsets = [&](int v, int step) __attribute__((target("avx2"))) {
-        const int a = std::abs(step);
-        const __m256i high = _mm256_mullo_epi16(pixel[v], _mm256_set1_epi16(std::int16_t(a >> 16)));
-        const __m256i low = _mm256_srli_epi16(
-            _mm256_add_epi16(_mm256_mulhi_epu16(pixel2[v], _mm256_set1_epi16(std::int16_t(a & 0xffff))), one16), 1);
-        return _mm256_sign_epi16(_mm256_add_epi16(high, low), _mm256_set1_epi16(std::int16_t(step < 0 ? -1 : 1)));
-    };
+    // Byte shuffle control: each 128-bit half's first 16-bit lane in all its lanes.
+    const __m256i first_lane = _mm256_set1_epi16(0x0100);
     const int chunks_in_row = dst_width / kChunk;
-    RowPlan plan;
+    const bool one_chunk_cells = chunks.mesh().cell == kChunk;
+    const int per_cell = chunks.mesh().cell / kChunk;
+    MeshPlan plan;
+    // Chunk c's vector v (in 16-bit lanes, not yet packed). Its lane offsets are recomputed
+    // for every chunk (in a mesh of 16-px cells the steps seldom repeat) from the plan's
+    // broadcast values: two 16-bit multiplies for x, one for y.
+    const auto chunkVector = [&](int c, int v) __attribute__((target("avx2"), always_inline)) {
+        // j b + ((j a + 2^14) >> 15) = (j (b 2^15 + a) + 2^14) >> 15.
+        const __m256i offset_x =
+            _mm256_add_epi16(_mm256_mullo_epi16(pixel[v], _mm256_set1_epi32(plan.step_x_b2[c])),
+                             _mm256_mulhrs_epi16(pixel[v], _mm256_set1_epi32(plan.step_x_a2[c])));
+        const __m256i offset_y = _mm256_sign_epi16(
+            _mm256_mulhrs_epi16(pixel_y[v], _mm256_set1_epi32(plan.step_y_abs2[c])), _mm256_set1_epi32(plan.step_y_sign2[c]));
+        const int ky_last = plan.ky_last[c];
+        const std::uint8_t *row = src.data + std::size_t(plan.iy0[c] + std::min(0, ky_last)) * stride;
+        return chunkVectorMeshAvx2<C>(row, stride, lanes, offset_x, offset_y,
+                                      _mm256_shuffle_epi8(offset_x, first_lane), _mm256_set1_epi32(plan.frx2[c]),
+                                      _mm256_set1_epi32(plan.fry2[c]), plan.window_byte[2 * v][c],
+                                      plan.window_byte[2 * v + 1][c], ky_last);
+    };
     for (int y = row_begin; y < row_end; ++y) {
-        chunks.beginRowAvx2(y, chunks_in_row);
+        if (one_chunk_cells)
+            chunks.beginRowNodesAvx2(y);
+        else
+            chunks.beginRow(y, chunks_in_row);
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
-        bool have_steps = false;
-        int steps_x = 0, steps_y = 0;  // the steps row_steps holds
         for (int first = 0; first < chunks_in_row; first += kPlanChunks) {
             const int count = std::min(kPlanChunks, chunks_in_row - first);
-            planMeshChunksAvx2(src, channels, chunks, plan, first, count);
+            if (one_chunk_cells)
+                planMeshRowAvx2<C>(src, chunks, plan, first, count);
+            else
+                planMeshChunksAvx2<C>(src, chunks, plan, first, count);
             prefetchBelow(src, channels, plan, count);
             for (int c = 0; c < count; ++c) {
                 const int k = first + c, x = k * kChunk;
                 if (!plan.vector_ok[c]) {
                     double m[6];
-                    chunks.matrix(k, m);
+                    chunks.chunkMatrix(k / per_cell, m);
                     samplePixels(src, channels, m, replicate, border, out, x, y, kChunk);
                     continue;
                 }
-                const int step_x = chunks.stepX(k), step_y = chunks.stepY(k);
-                if (!(have_steps && step_x == steps_x && step_y == steps_y)) {
-                    for (int v = 0; v < C; ++v) {
-                        row_steps[v].window_lo = chunkOffset(step_x, lanePixel(C, v, 0));
-                        row_steps[v].window_hi = chunkOffset(step_x, lanePixel(C, v, H * channels));
-                        row_steps[v].offset_x = offsets(v, step_x);
-                        row_steps[v].offset_y = offsets(v, step_y);
-                        row_steps[v].window =
-                            _mm256_blendv_epi8(_mm256_set1_epi16(std::int16_t(row_steps[v].window_lo)),
-                                               _mm256_set1_epi16(std::int16_t(row_steps[v].window_hi)),
-                                               lanes.high_mask);
-                    }
-                    have_steps = true;
-                    steps_x = step_x;
-                    steps_y = step_y;
+                if (C == 1 && c + 2 <= count && (plan.vector_ok[c] & plan.vector_ok[c + 1])) {
+                    // Two chunks' vectors packed into one 32-byte store.
+                    const __m256i a = chunkVector(c, 0), b = chunkVector(c + 1, 0);
+                    _mm256_storeu_si256(reinterpret_cast<__m256i *>(out + x),
+                                        _mm256_permute4x64_epi64(_mm256_packus_epi16(a, b), 0xD8));
+                    ++c;
+                    continue;
                 }
                 __m256i vectors[C];
                 for (int v = 0; v < C; ++v)
-                    vectors[v] = chunkVectorAvx2<C>(src.data, stride, lanes, row_steps[v], plan.ix0[c], plan.iy0[c],
-                                                    plan.frx[c], plan.fry[c], plan.ky_last[c]);
+                    vectors[v] = chunkVector(c, v);
                 const __m256i packed =
                     _mm256_permute4x64_epi64(_mm256_packus_epi16(vectors[0], vectors[C - 1]), 0xD8);
                 if (C == 2)
@@ -1454,6 +1600,22 @@ private:
             top = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(row)), idx);
             bottom = _mm256_permutevar8x32_epi32(
                 _mm256_loadu_si256(reinterpret_cast<const __m256i *>(row + src_.stride)), idx);
+        } else if (std::abs(sy3 - sy0) == 1 && sx3 >= sx0 && sx3 - sx0 <= 6 && sx0 + 8 <= src_.width) {
+            // The four cross one source row (a slanted or bent row of the output): windows
+            // of three rows, each pixel's top and bottom tap from the pair at its own row.
+            const int first = std::min(sy0, sy3);  // first + 2 <= height - 1: sy <= height - 2
+            const std::uint8_t *row = src_.data + std::size_t(first) * src_.stride + std::size_t(sx0) * 4;
+            const __m256i d = _mm256_cvtepu32_epi64(_mm_sub_epi32(sx, _mm_set1_epi32(sx0)));
+            const __m256i idx = _mm256_or_si256(d, _mm256_slli_epi64(_mm256_add_epi64(d, one64_), 32));
+            const __m256i r0 = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i *>(row)), idx);
+            const __m256i r1 = _mm256_permutevar8x32_epi32(
+                _mm256_loadu_si256(reinterpret_cast<const __m256i *>(row + src_.stride)), idx);
+            const __m256i r2 = _mm256_permutevar8x32_epi32(
+                _mm256_loadu_si256(reinterpret_cast<const __m256i *>(row + 2 * std::size_t(src_.stride))), idx);
+            // Pixels on the second row: sy == first + 1 (in 64-bit lanes).
+            const __m256i lower = _mm256_cmpgt_epi64(_mm256_cvtepi32_epi64(sy), _mm256_set1_epi64x(first));
+            top = _mm256_blendv_epi8(r0, r1, lower);
+            bottom = _mm256_blendv_epi8(r1, r2, lower);
         } else {
             const __m128i offset = _mm_add_epi32(_mm_mullo_epi32(sy, stride_), _mm_slli_epi32(sx, 2));
             top = _mm256_i32gather_epi64(base_, offset, 1);
@@ -1649,7 +1811,7 @@ __attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, s
     }
     const Cv4PixelsAvx2 pixels(src, replicate, border);
     MeshRow row(mesh);
-    const __m256d cell = _mm256_set1_pd(double(mesh.cell)), k1024 = _mm256_set1_pd(1024.0);
+    const __m256d k1024 = _mm256_set1_pd(1024.0);
     const __m256d low = _mm256_set1_pd(-30000.0), high = _mm256_set1_pd(30000.0);
     const __m128i sixteen = _mm_set1_epi32(16);
     // Clamped, x 1024, rounded, + 16: (round(s * 1024) + 16) of four pixels.
@@ -1657,36 +1819,57 @@ __attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, s
         return _mm_add_epi32(_mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_min_pd(_mm256_max_pd(v, low), high), k1024)),
                              sixteen);
     };
+    // (x - x_cell) / cell for every column of a cell: the same doubles as dividing there.
+    std::vector<double> fractions(std::size_t(mesh.cell));
+    for (int k = 0; k < mesh.cell; ++k)
+        fractions[std::size_t(k)] = double(k) / mesh.cell;
     for (int y = row_begin; y < row_end; ++y) {
         row.begin(y);
         const double *row_x = row.x(), *row_y = row.y();
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         int x = 0;
-        for (; x + 8 <= dst_width; x += 8) {
-            const int i = x / mesh.cell;
-            const __m256d x_cell = _mm256_set1_pd(double(i) * mesh.cell);
-            const __m256d left_x = _mm256_set1_pd(row_x[i]), span_x = _mm256_set1_pd(row_x[i + 1] - row_x[i]);
-            const __m256d left_y = _mm256_set1_pd(row_y[i]), span_y = _mm256_set1_pd(row_y[i + 1] - row_y[i]);
-            const __m256d o0 = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(0, 1, 2, 3)));
-            const __m256d o1 = _mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x), _mm_setr_epi32(4, 5, 6, 7)));
-            const __m256d s0 = _mm256_div_pd(_mm256_sub_pd(o0, x_cell), cell);
-            const __m256d s1 = _mm256_div_pd(_mm256_sub_pd(o1, x_cell), cell);
-            const __m256d sx0 = _mm256_add_pd(left_x, _mm256_mul_pd(span_x, s0));
-            const __m256d sx1 = _mm256_add_pd(left_x, _mm256_mul_pd(span_x, s1));
-            const __m256d sy0 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s0));
-            const __m256d sy1 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s1));
-            const __m256d nan = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(sx0, sx0, _CMP_UNORD_Q),
-                                                          _mm256_cmp_pd(sx1, sx1, _CMP_UNORD_Q)),
-                                             _mm256_or_pd(_mm256_cmp_pd(sy0, sy0, _CMP_UNORD_Q),
-                                                          _mm256_cmp_pd(sy1, sy1, _CMP_UNORD_Q)));
-            if (_mm256_movemask_pd(nan) != 0) {
-                for (int j = 0; j < 8; ++j)
-                    sampleMeshPixelCv<4>(src, row.at(x + j), replicate, border, out + 4 * (x + j));
-                continue;
+        // Cell by cell (a cell holds whole groups of eight: its width is a multiple of 16).
+        for (int i = 0; x + 8 <= dst_width; ++i) {
+            const int cell_end = std::min(dst_width, (i + 1) * mesh.cell);
+            const double lx = row_x[i], ly = row_y[i], rx = row_x[i + 1], ry = row_y[i + 1];
+            const __m256d left_x = _mm256_set1_pd(lx), span_x = _mm256_set1_pd(rx - lx);
+            const __m256d left_y = _mm256_set1_pd(ly), span_y = _mm256_set1_pd(ry - ly);
+            // Nodes well inside +-30000 px: every position of the cell lies between them
+            // (left + span s, s in [0, 1)), so neither NaN nor clamped: those tests go.
+            const bool plain = std::abs(lx) < 29000.0 && std::abs(rx) < 29000.0 && std::abs(ly) < 29000.0 &&
+                               std::abs(ry) < 29000.0;
+            for (; x + 8 <= cell_end; x += 8) {
+                const double *f = fractions.data() + (x - i * mesh.cell);
+                const __m256d s0 = _mm256_loadu_pd(f), s1 = _mm256_loadu_pd(f + 4);
+                const __m256d sx0 = _mm256_add_pd(left_x, _mm256_mul_pd(span_x, s0));
+                const __m256d sx1 = _mm256_add_pd(left_x, _mm256_mul_pd(span_x, s1));
+                const __m256d sy0 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s0));
+                const __m256d sy1 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s1));
+                if (plain) {
+                    const auto fixed_inside = [&](__m256d v) __attribute__((target("avx2"), always_inline)) {
+                        return _mm256_cvtpd_epi32(_mm256_mul_pd(v, k1024));
+                    };
+                    const __m256i sixteen8 = _mm256_set1_epi32(16);
+                    const __m256i X = _mm256_srai_epi32(
+                        _mm256_add_epi32(_mm256_set_m128i(fixed_inside(sx1), fixed_inside(sx0)), sixteen8), 5);
+                    const __m256i Y = _mm256_srai_epi32(
+                        _mm256_add_epi32(_mm256_set_m128i(fixed_inside(sy1), fixed_inside(sy0)), sixteen8), 5);
+                    pixels(X, Y, out + 4 * x);
+                    continue;
+                }
+                const __m256d nan = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(sx0, sx0, _CMP_UNORD_Q),
+                                                              _mm256_cmp_pd(sx1, sx1, _CMP_UNORD_Q)),
+                                                 _mm256_or_pd(_mm256_cmp_pd(sy0, sy0, _CMP_UNORD_Q),
+                                                              _mm256_cmp_pd(sy1, sy1, _CMP_UNORD_Q)));
+                if (_mm256_movemask_pd(nan) != 0) {
+                    for (int j = 0; j < 8; ++j)
+                        sampleMeshPixelCv<4>(src, row.at(x + j), replicate, border, out + 4 * (x + j));
+                    continue;
+                }
+                const __m256i X = _mm256_srai_epi32(_mm256_set_m128i(fixed(sx1), fixed(sx0)), 5);
+                const __m256i Y = _mm256_srai_epi32(_mm256_set_m128i(fixed(sy1), fixed(sy0)), 5);
+                pixels(X, Y, out + 4 * x);
             }
-            const __m256i X = _mm256_srai_epi32(_mm256_set_m128i(fixed(sx1), fixed(sx0)), 5);
-            const __m256i Y = _mm256_srai_epi32(_mm256_set_m128i(fixed(sy1), fixed(sy0)), 5);
-            pixels(X, Y, out + 4 * x);
         }
         for (; x < dst_width; ++x)
             sampleMeshPixelCv<4>(src, row.at(x), replicate, border, out + 4 * x);

@@ -106,12 +106,15 @@ void warpPlaneBilinear16Rows(const PlaneSpan &src, std::uint8_t *dst, int dst_st
 // with that matrix; a chunk that matrix's warp would not take on the fast path (taps off
 // the frame, a step the window trick does not handle) is sampled per pixel with it, and the
 // columns past the last whole chunk per pixel at WarpMesh::at. So any mesh is handled. The
-// lane offsets come from the chunk's m0, m3 rounded to 2^-26 (the same as the matrix warp's
-// whenever they are multiples of 2^-16; else an offset may differ by 1/1024 px). Cost: the
-// chunk's matrix, offsets and plan are computed per chunk rather than per row: a 1080p I420
-// frame took 1.3 to 1.8 times the single-matrix warp's CPU time (AVX2, one thread, mild
-// barrel distortion; the higher ratio on an otherwise idle machine, where the single-matrix
-// warp is fastest). Most of the extra is the per-chunk lane offsets.
+// lane offsets come from the chunk's m0 rounded to 2^-25 and m3 to 2^-19 (the same as the
+// matrix warp's whenever they are multiples of those; else an offset may differ by 1/1024
+// px: on an affine mesh with arbitrary entries about 7 bytes in 10^5 differ from the matrix
+// warp's). Cost: the AVX2 kernel plans a row's chunks in one pass from the row's nodes and
+// spends three 16-bit multiplies per chunk vector on its offsets; the 1080p I420 frame of
+// `uavstab-bench-lens --quick --only cost` (150-degree fisheye, 16-px cells; one thread,
+// the meshes, about 0.35 ms, included) takes 1.36-1.60x the single-matrix warp's CPU time,
+// median of five runs 1.44x (was 1.9x; noisy shared machine, the same command); the warp
+// alone about 1.33x.
 bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                            int row_end, int channels, const WarpMesh &mesh, bool replicate,
                            const std::uint8_t border[4]);
@@ -123,9 +126,10 @@ bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stri
 // 4 interleaved bytes per pixel at WarpMesh::at rounded to 1/32 px and weighted as OpenCV's
 // fixed-point bilinear (warpPlaneBilinear4's arithmetic). The AVX2 kernel (where this CPU
 // has it) takes eight pixels at a time as warpPlaneBilinear4 does, the positions computed in
-// double vectors: about twice its single-matrix cost; the scalar one (also the reference
-// the tests compare it with) per pixel, over ten times that. A kernel given: false when it
-// is not available or is Simd128 (there is none).
+// double vectors cell by cell: the bench's 1080p BGRx frame takes 1.93-2.11x the
+// single-matrix cost, median of five runs 2.03x (was 2.3x; meshes included, same command as
+// above); the scalar one (also the reference the tests compare it with) per pixel, over ten
+// times that. A kernel given: false when it is not available or is Simd128 (there is none).
 bool warpPlaneBilinear4Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                             int row_end, const WarpMesh &mesh, bool replicate, const std::uint8_t border[4]);
 bool warpPlaneBilinear4Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,

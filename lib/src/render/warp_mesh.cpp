@@ -23,11 +23,16 @@ void cellOf(double o, int cell, int nodes, int &index, double &fraction)
 
 } // namespace
 
+void WarpMesh::rowCell(double oy, int &j, double &t) const
+{
+    cellOf(oy, cell, rows, j, t);
+}
+
 void WarpMesh::rowAt(double oy, double *row_x, double *row_y) const
 {
     int j;
     double t;
-    cellOf(oy, cell, rows, j, t);
+    rowCell(oy, j, t);
     const double *top_x = x.data() + std::size_t(j) * columns, *top_y = y.data() + std::size_t(j) * columns;
     const double *bottom_x = top_x + columns, *bottom_y = top_y + columns;
     for (int i = 0; i < columns; ++i) {

@@ -25,6 +25,10 @@ struct WarpMesh {
     // column (row_x, row_y: `columns` entries each). Along the row, inside a cell, at()
     // is then linear between two of these.
     void rowAt(double oy, double *row_x, double *row_y) const;
+    // The node row j that rowAt interpolates from (with j + 1) at output row oy, and oy's
+    // fraction t between them: row_x[i] = x[j columns + i] + (x[(j + 1) columns + i] -
+    // x[j columns + i]) t, and likewise y.
+    void rowCell(double oy, int &j, double &t) const;
     // The position at output column ox of the row whose node positions rowAt gave: the
     // same doubles as at(ox, oy) for that row's oy, without interpolating down every time.
     Point2 alongRow(const double *row_x, const double *row_y, double ox) const;
