@@ -11,6 +11,7 @@ namespace {
 
 constexpr std::size_t kSamples = 6;  // frames compared
 constexpr double kSampleSpacing = 6.0;  // analysis px the camera moves between samples
+constexpr int kRebuildEvery = 3;        // samples between two rebuilds of the mask
 // The samples' positions must spread this far (analysis px, RMS) across their main direction
 // too: along a straight pan, a scene's edges parallel to it stay the same.
 constexpr double kMinCrossSpread = 3.0;
@@ -31,6 +32,7 @@ void OverlayStrokes::reset()
 
 void OverlayStrokes::motionUnknown()
 {
+    pending_.release();
     samples_.clear();  // the next positions cannot be related to theirs
     position_ = {0.0, 0.0};
 }
@@ -43,8 +45,10 @@ void OverlayStrokes::cameraMoved(const Similarity &current_to_previous, double s
         return;
     if (!samples_.empty()) {
         const Point2 &last = samples_.back().position;
-        if (std::hypot(position_.x - last.x, position_.y - last.y) < kSampleSpacing)
+        if (std::hypot(position_.x - last.x, position_.y - last.y) < kSampleSpacing) {
+            pending_.release();  // the frame's buffer is not ours to keep
             return;
+        }
         if (samples_.back().luma.size() != pending_.size())
             samples_.clear();
     }
@@ -52,13 +56,19 @@ void OverlayStrokes::cameraMoved(const Similarity &current_to_previous, double s
         // The oldest sample's buffer takes the new one.
         Sample oldest = std::move(samples_.front());
         samples_.erase(samples_.begin());
-        cv::swap(oldest.luma, pending_);
+        pending_.copyTo(oldest.luma);
         oldest.position = position_;
         samples_.push_back(std::move(oldest));
     } else {
         samples_.push_back({pending_.clone(), position_});
     }
-    rebuildMask();
+    pending_.release();
+    // The mask is rebuilt every few samples: an overlay stays, and the streaming thread's
+    // time is the element's throughput.
+    if (++samples_since_rebuild_ >= kRebuildEvery) {
+        samples_since_rebuild_ = 0;
+        rebuildMask();
+    }
 }
 
 bool OverlayStrokes::samplesSpreadInTwoDirections() const
@@ -117,7 +127,9 @@ void OverlayStrokes::rebuildMask()
 
 const cv::Mat &OverlayStrokes::paint(const cv::Mat &luma, cv::Mat &painted)
 {
-    luma.copyTo(pending_);
+    // Not copied: the estimator tells cameraMoved() this frame's motion before the next
+    // frame's luma is extracted into the same buffer, and a sample is copied there.
+    pending_ = luma;
     if (mask_.empty() || mask_.size() != luma.size())
         return luma;
     // Each overlay pixel takes the mean of the scene around it (a normalised convolution:

@@ -33,7 +33,7 @@ public:
     // Returns the luma (analysis resolution) to track on: `luma` itself when no overlay is
     // known, else `painted` with the overlay's pixels painted over. The frame is kept as a
     // sample if the motion cameraMoved() then gives has taken the camera far enough from
-    // the last one.
+    // the last one: `luma` must stay unchanged until then.
     const cv::Mat &paint(const cv::Mat &luma, cv::Mat &painted);
     // The current overlay mask (255 = overlay), empty when none is known.
     const cv::Mat &mask() const { return mask_; }
@@ -49,7 +49,8 @@ private:
 
     std::vector<Sample> samples_;
     Point2 position_{0.0, 0.0};  // the camera's accumulated translation (analysis px)
-    cv::Mat pending_;            // the last frame's luma, a sample once its motion is known
+    cv::Mat pending_;            // the last frame's luma (not a copy), a sample once its motion is known
+    int samples_since_rebuild_ = 0;
     cv::Mat low_, high_;         // per-pixel range over the samples
     cv::Mat mask_;
     cv::Mat weight_, blurred_weight_, blurred_;  // the painting's scratch
