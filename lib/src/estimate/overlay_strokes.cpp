@@ -20,6 +20,11 @@ constexpr int kStandOut = 12;     // luma levels from its neighbourhood's mean (
 constexpr int kGrow = 2;          // px the mask is grown by (a stroke's soft edge)
 constexpr int kPaintRadius = 8;  // px: the neighbourhood a painted pixel takes its value from
 
+cv::Size paintWindow()
+{
+    return {2 * kPaintRadius + 1, 2 * kPaintRadius + 1};
+}
+
 } // namespace
 
 void OverlayStrokes::reset()
@@ -123,6 +128,17 @@ void OverlayStrokes::rebuildMask()
         return;
     }
     cv::dilate(mask_, mask_, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * kGrow + 1, 2 * kGrow + 1)));
+    // What the painting needs of the mask alone, once per mask rather than per frame: the
+    // area it touches, the scene's weights there and their blur.
+    const cv::Rect box = cv::boundingRect(mask_);
+    const int margin = kPaintRadius;
+    paint_area_ = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
+                  cv::Rect(0, 0, mask_.cols, mask_.rows);
+    cv::Mat scene;
+    cv::bitwise_not(mask_(paint_area_), scene);
+    scene.convertTo(weight_, CV_32F, 1.0 / 255.0);
+    cv::boxFilter(weight_, blurred_weight_, -1, paintWindow());
+    cv::max(blurred_weight_, 1e-3f, blurred_weight_);
 }
 
 const cv::Mat &OverlayStrokes::paint(const cv::Mat &luma, cv::Mat &painted)
@@ -134,25 +150,14 @@ const cv::Mat &OverlayStrokes::paint(const cv::Mat &luma, cv::Mat &painted)
         return luma;
     // Each overlay pixel takes the mean of the scene around it (a normalised convolution:
     // the blur of the scene's pixels over the blur of their weights).
-    const cv::Rect box = cv::boundingRect(mask_);
-    const int margin = kPaintRadius;
-    const cv::Rect area = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
-                          cv::Rect(0, 0, luma.cols, luma.rows);
-    const cv::Mat mask = mask_(area);
-    cv::Mat scene;
-    cv::bitwise_not(mask, scene);
-    scene.convertTo(weight_, CV_32F, 1.0 / 255.0);
+    const cv::Rect &area = paint_area_;
     luma(area).convertTo(blurred_, CV_32F);
     cv::multiply(blurred_, weight_, blurred_);
-    const cv::Size window(2 * kPaintRadius + 1, 2 * kPaintRadius + 1);
-    cv::boxFilter(blurred_, blurred_, -1, window);
-    cv::boxFilter(weight_, blurred_weight_, -1, window);
-    cv::max(blurred_weight_, 1e-3f, blurred_weight_);
+    cv::boxFilter(blurred_, blurred_, -1, paintWindow());
     cv::divide(blurred_, blurred_weight_, blurred_);
     luma.copyTo(painted);
-    cv::Mat fill;
-    blurred_.convertTo(fill, CV_8U);
-    fill.copyTo(painted(area), mask);
+    blurred_.convertTo(fill_, CV_8U);
+    fill_.copyTo(painted(area), mask_(area));
     return painted;
 }
 

@@ -53,7 +53,11 @@ private:
     int samples_since_rebuild_ = 0;
     cv::Mat low_, high_;         // per-pixel range over the samples
     cv::Mat mask_;
-    cv::Mat weight_, blurred_weight_, blurred_;  // the painting's scratch
+    // Of the mask, for the painting: the area it touches (the mask's box grown by the
+    // painting's radius), the scene's weights there and their box filter.
+    cv::Rect paint_area_;
+    cv::Mat weight_, blurred_weight_;
+    cv::Mat blurred_, fill_;  // the painting's scratch
 };
 
 } // namespace uavstab
