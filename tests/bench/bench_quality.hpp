@@ -129,7 +129,8 @@ struct Metrics {
     double jitter_steady = kNaN;  // the same after the first second: without the start-up
     double path_error = kNaN, path_error_stats = kNaN;  // against the intended path (synthetic::intendedPathError)
     double path_jitter = kNaN;   // synthetic::intendedPathJitter after the first second
-    double path_max_dev = kNaN;  // synthetic::intendedPathMaxDeviation
+    double path_max_dev = kNaN;  // synthetic::intendedPathMaxDeviation (the lag)
+    double path_whip = kNaN;     // synthetic::pathWhip after the first second
     double path_jitter_first = kNaN;  // synthetic::intendedPathJitter over the first second alone
     std::vector<Similarity> path;  // true world pose of the output frames (for plots)
     std::vector<double> zoom_series;  // registered input -> output zoom per frame (NaN: registration failed)

@@ -266,6 +266,31 @@ int main(int argc, char **argv)
                         "man", "path_jitter", {{5, 1.0}, {20, 0.5}});
             ratioTarget("(no target) manoeuvre flight, error vs the intended path (RMS, not high-passed) vs vid.stab's",
                         "man", "path_error", {});
+            // Manoeuvres as a viewer sees them: how far the output trails the pilot (lag, against
+            // vid.stab's on the same flight) and whether it rushes to catch up (whip).
+            for (const std::string &name : names) {
+                std::string measured, failed;
+                for (int d : delays) {
+                    const std::string k = "quality.man." + key(name, d);
+                    if (!n.has(k + ".path_whip"))
+                        continue;
+                    const double whip = n.get(k + ".path_whip"), lag = n.get(k + ".path_max_dev_vs_vidstab");
+                    measured += format("%sd%d: whip %.2f, lag %.1f px = %s", measured.empty() ? "" : "; ", d, whip,
+                                       n.get(k + ".path_max_dev"), num(lag, "%.2fx").c_str());
+                    if (d == 0)
+                        continue;  // judged from delay 5 on
+                    const double whip_limit = d >= 20 ? 1.0 : 1.1;
+                    if (!(whip <= whip_limit) || !(lag <= 1.25))
+                        failed += (failed.empty() ? "d" : ", d") + std::to_string(d);
+                }
+                targets.push_back(
+                    {format("%s: manoeuvre flight, whip (the output's fastest move over the pilot's) <= 1.0 at "
+                            "delay 20 and <= 1.1 at 5-10; lag (the largest corner distance from the intended path) "
+                            "<= 1.25x vid.stab's on the same flight (worst flight)",
+                            n.text("quality.ours." + name + ".label").c_str()),
+                     measured.empty() ? "not measured" : measured,
+                     measured.empty() ? "not measured" : failed.empty() ? "**met**" : "**not met** (" + failed + ")"});
+            }
             // Reported beside them: the largest deviation from the intended path, and the first
             // second on its own (there the output must be no shakier than the input).
             for (const std::string &name : names)

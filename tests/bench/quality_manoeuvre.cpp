@@ -112,8 +112,13 @@ void sectionManoeuvre(const Options &o, const std::vector<Method> &ms, std::vect
         "clips. **Error vs intended path** (`synthetic::intendedPathError`): for each frame E_i = intended_i^-1 * "
         "output_i (output_i = truePose_i * output_to_input_i, registered as everywhere else), and the RMS over the "
         "four output corners and all frames of E_i(corner) - mean_j E_j(corner), in px: a constant offset or zoom "
-        "costs nothing; lagging behind a start or a stop, bending the manoeuvre and leftover shake cost. Residual "
-        "jitter beside it (it forgives a smoother that bends the path slowly). %s",
+        "costs nothing; lagging behind a start or a stop, bending the manoeuvre and leftover shake cost. **Lag** "
+        "(`synthetic::intendedPathMaxDeviation`): the largest distance of an output corner from its mean place "
+        "relative to the intended path, worst clip, and the worst clip's ratio to vid.stab's on the same clip. "
+        "**Whip** (`synthetic::pathWhip`): the output's fastest corner move over the world divided by the intended "
+        "path's fastest, after the first second (corners smoothed with a Gaussian of sigma 2 frames), worst clip: "
+        "above 1 the output rushes past the pilot to catch up. Residual jitter beside them (it forgives a smoother "
+        "that bends the path slowly). %s",
         clips_text.c_str(), frames, delaysText().c_str()));
     std::vector<ClipResult> results;
     for (const ClipSpec &c : specs)

@@ -114,6 +114,8 @@ Metrics analyze(const Clip &clip, const std::vector<Features> &input_features, c
             m.path_jitter = synthetic::intendedPathJitter(path, clip.intended, clip.width, clip.height,
                                                           std::size_t(std::lround(clip.fps())));
             m.path_max_dev = synthetic::intendedPathMaxDeviation(path, clip.intended, clip.width, clip.height);
+            m.path_whip = synthetic::pathWhip(path, clip.intended, clip.width, clip.height,
+                                              std::size_t(std::lround(clip.fps())));
             const std::size_t second = std::min(n, std::size_t(std::lround(clip.fps())));
             m.path_jitter_first = synthetic::intendedPathJitter(
                 std::vector<Similarity>(path.begin(), path.begin() + long(second)),

@@ -49,6 +49,20 @@ bool ranOnAny(const std::vector<ClipResult> &results, const std::string &key)
     return false;
 }
 
+// The worst over the clips of ours / vid.stab's on the same clip (NaN where vid.stab did not run).
+double worstClipVsVidstab(const std::vector<ClipResult> &results, const std::string &key, double Metrics::*field)
+{
+    double worst = kNaN;
+    for (const ClipResult &r : results) {
+        const Metrics *m = find(r, key), *x = find(r, "vidstab");
+        if (!m || !x || !std::isfinite(m->*field) || !std::isfinite(x->*field) || x->*field <= 0.0)
+            continue;
+        const double ratio = m->*field / x->*field;
+        worst = std::isfinite(worst) ? std::max(worst, ratio) : ratio;
+    }
+    return worst;
+}
+
 VsVidstab vsVidstab(const std::vector<ClipResult> &results, const std::string &key, double Metrics::*field)
 {
     std::vector<double> v, ref;
@@ -72,7 +86,8 @@ Table truthTable(const Options &o, const std::string &prefix, const std::vector<
     for (const ClipResult &r : results)
         with_path = with_path || !r.clip.intended.empty();
     const std::vector<std::string> path_cols{"jitter vs intended after 1 s px", "vs vid.stab",
-                                             "error vs intended path px", "vs vid.stab", "max deviation px"};
+                                             "error vs intended path px", "vs vid.stab", "lag px",
+                                             "lag vs vid.stab (worst clip)", "whip"};
     const std::vector<std::string> jitter_cols{"residual jitter px", "vs vid.stab", "after 1 s px", "vs vid.stab"};
     std::vector<std::string> header{"method", "delay"};
     auto append = [&](const std::vector<std::string> &cols) { header.insert(header.end(), cols.begin(), cols.end()); };
@@ -94,6 +109,8 @@ Table truthTable(const Options &o, const std::string &prefix, const std::vector<
         const VsVidstab e = vsVidstab(results, m.key, &Metrics::path_error);
         const VsVidstab pj = vsVidstab(results, m.key, &Metrics::path_jitter);
         const double max_dev = maxOf(collect(results, m.key, &Metrics::path_max_dev));
+        const double lag_vs_vidstab = worstClipVsVidstab(results, m.key, &Metrics::path_max_dev);
+        const double whip = maxOf(collect(results, m.key, &Metrics::path_whip));
         const VsVidstab itf = vsVidstab(results, m.key, &Metrics::itf);
         int failed = 0, clips = 0;
         for (const ClipResult &r : results)
@@ -107,7 +124,8 @@ Table truthTable(const Options &o, const std::string &prefix, const std::vector<
         const double zoom_max = maxOf(collect(results, m.key, &Metrics::zoom_max));
         const double dist = maxOf(collect(results, m.key, &Metrics::distortion_max));
         const std::vector<std::string> path_cells{num(pj.value), num(pj.value / pj.vidstab, "%.2fx"), num(e.value),
-                                                  num(e.value / e.vidstab, "%.2fx"), num(max_dev, "%.1f")};
+                                                  num(e.value / e.vidstab, "%.2fx"), num(max_dev, "%.1f"),
+                                                  num(lag_vs_vidstab, "%.2fx"), num(whip, "%.2f")};
         const std::vector<std::string> jitter_cells{num(j.value), num(j.value / j.vidstab, "%.2fx"), num(js.value),
                                                     num(js.value / js.vidstab, "%.2fx")};
         std::vector<std::string> row{m.label, delayCell(m)};
@@ -136,6 +154,8 @@ Table truthTable(const Options &o, const std::string &prefix, const std::vector<
             putResult(o, key + ".path_jitter", pj.value);
             putResult(o, key + ".path_jitter_vs_vidstab", pj.value / pj.vidstab);
             putResult(o, key + ".path_max_dev", max_dev);
+            putResult(o, key + ".path_max_dev_vs_vidstab", lag_vs_vidstab);
+            putResult(o, key + ".path_whip", whip);
             putResult(o, key + ".path_jitter_first", mean(collect(results, m.key, &Metrics::path_jitter_first)));
         }
         putResult(o, key + ".coverage_mean", cov_mean);
