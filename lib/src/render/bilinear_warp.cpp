@@ -1470,8 +1470,10 @@ inline int cvRoundInt(double v)
 }
 
 // One output pixel at fixed-point position (X, Y) (1/32 px), any position.
-inline void samplePixelCv4(const PlaneSpan &src, int X, int Y, bool replicate, const std::uint8_t *border,
-                           std::uint8_t *out)
+// (Out of line: the kernels take it for edge pixels only, and inlining it into the
+// single-matrix kernel only makes that kernel longer.)
+__attribute__((noinline)) void samplePixelCv4(const PlaneSpan &src, int X, int Y, bool replicate,
+                                              const std::uint8_t *border, std::uint8_t *out)
 {
     const int sx = std::clamp(X >> 5, -32768, 32767), sy = std::clamp(Y >> 5, -32768, 32767);  // saturate_cast<short>
     const int fx = X & 31, fy = Y & 31;
@@ -1875,7 +1877,16 @@ public:
             nx_[std::size_t(i)] = meshNodeFixed(row_.x()[i]);
             ny_[std::size_t(i)] = meshNodeFixed(row_.y()[i]);
         }
+        planCellsAvx2();
     }
+
+    // The AVX2 kernel's 32-bit lanes for cell i (after beginAvx2): when fast(i), the position
+    // k px into the cell is A + ((a + k D) >> kMeshShift), A 2^kMeshShift + a = N_i +
+    // kMeshRound, on each axis, with no 32-bit overflow for k < cell.
+    bool fast(int i) const { return fast_[std::size_t(i)] != 0; }
+    const int *cellA(int axis) const { return (axis ? ay_ : ax_).data(); }
+    const int *cellLow(int axis) const { return (axis ? ly_ : lx_).data(); }
+    const int *cellStep(int axis) const { return (axis ? dy_ : dx_).data(); }
 #endif
     const MeshRow &row() const { return row_; }
     // Whether cell i's positions are fixed point (its four nodes plain).
@@ -1897,6 +1908,75 @@ public:
     }
 
 private:
+#ifdef UAVSTAB_HAVE_X86
+    // fast_, A, a and D of every cell, four cells at a time where the cell is a power of two
+    // (a shift: floor((N_{i+1} - N_i) / cell)'s low 32 bits, which are D's when it is fast).
+    __attribute__((target("avx2"))) void planCellsAvx2()
+    {
+        const int cells = mesh_.columns - 1;
+        if (ax_.empty()) {
+            for (auto *v : {&ax_, &lx_, &dx_, &ay_, &ly_, &dy_})
+                v->resize(std::size_t(cells) + 4);
+            fast_.resize(std::size_t(cells) + 4);
+        }
+        // |N_{i+1} - N_i| <= limit: |D| <= limit / cell, and |a + k D| < 2^kMeshShift + (cell - 1) |D| < 2^31.
+        const long long limit = ((1LL << 31) - (1LL << kMeshShift)) / mesh_.cell - 1;
+        const long long span_limit = limit * mesh_.cell;
+        int i = 0;
+        if (cell_shift_ >= 0) {
+            const __m256i round = _mm256_set1_epi64x(kMeshRound), low = _mm256_set1_epi64x((1LL << kMeshShift) - 1);
+            const __m256i hi = _mm256_set1_epi64x(span_limit), lo = _mm256_set1_epi64x(-span_limit);
+            const __m256i pick = _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0);
+            const __m128i shift = _mm_cvtsi32_si128(cell_shift_), node_shift = _mm_cvtsi32_si128(kMeshShift);
+            const auto low32 = [&](__m256i v) __attribute__((target("avx2"), always_inline)) {
+                return _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(v, pick));
+            };
+            for (; i + 4 <= cells; i += 4) {
+                __m256i ok = _mm256_set1_epi64x(-1);
+                for (int axis = 0; axis < 2; ++axis) {
+                    const long long *n = (axis ? ny_ : nx_).data() + i;
+                    const double *v = (axis ? row_.y() : row_.x()) + i;
+                    const __m256i n0 = _mm256_loadu_si256(reinterpret_cast<const __m256i *>(n));
+                    const __m256i n1 = _mm256_loadu_si256(reinterpret_cast<const __m256i *>(n + 1));
+                    const __m256i diff = _mm256_sub_epi64(n1, n0);
+                    const __m256i b = _mm256_add_epi64(n0, round);
+                    // Logical shifts: their low 32 bits are the arithmetic shifts'.
+                    _mm_storeu_si128(reinterpret_cast<__m128i *>((axis ? ay_ : ax_).data() + i),
+                                     low32(_mm256_srl_epi64(b, node_shift)));
+                    _mm_storeu_si128(reinterpret_cast<__m128i *>((axis ? ly_ : lx_).data() + i),
+                                     low32(_mm256_and_si256(b, low)));
+                    _mm_storeu_si128(reinterpret_cast<__m128i *>((axis ? dy_ : dx_).data() + i),
+                                     low32(_mm256_srl_epi64(diff, shift)));
+                    const __m256d limit_pd = _mm256_set1_pd(29000.0);
+                    const __m256d abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffLL));
+                    const __m256d p0 = _mm256_cmp_pd(_mm256_and_pd(_mm256_loadu_pd(v), abs_mask), limit_pd, _CMP_LT_OQ);
+                    const __m256d p1 =
+                        _mm256_cmp_pd(_mm256_and_pd(_mm256_loadu_pd(v + 1), abs_mask), limit_pd, _CMP_LT_OQ);
+                    const __m256i out = _mm256_or_si256(_mm256_cmpgt_epi64(diff, hi), _mm256_cmpgt_epi64(lo, diff));
+                    ok = _mm256_andnot_si256(out, _mm256_and_si256(ok, _mm256_castpd_si256(_mm256_and_pd(p0, p1))));
+                }
+                const int mask = _mm256_movemask_pd(_mm256_castsi256_pd(ok));
+                for (int j = 0; j < 4; ++j)
+                    fast_[std::size_t(i + j)] = std::uint8_t((mask >> j) & 1);
+            }
+        }
+        for (; i < cells; ++i) {
+            const long long d[2] = {dx(i), dy(i)}, n[2] = {nx(i), ny(i)};
+            bool ok = plain(i);
+            for (int axis = 0; axis < 2; ++axis) {
+                const long long diff = (axis ? ny_ : nx_)[std::size_t(i) + 1] - (axis ? ny_ : nx_)[std::size_t(i)];
+                ok = ok && std::abs(diff) <= span_limit;
+                const long long b = n[axis] + kMeshRound;
+                (axis ? ay_ : ax_)[std::size_t(i)] = int(b >> kMeshShift);
+                (axis ? ly_ : lx_)[std::size_t(i)] = int(b & ((1LL << kMeshShift) - 1));
+                (axis ? dy_ : dx_)[std::size_t(i)] = ok ? int(d[axis]) : 0;
+            }
+            fast_[std::size_t(i)] = ok;
+        }
+    }
+    std::vector<int> ax_, lx_, dx_, ay_, ly_, dy_;
+    std::vector<std::uint8_t> fast_;
+#endif
     const WarpMesh &mesh_;
     MeshRow row_;
     int cell_shift_;
@@ -1957,9 +2037,6 @@ __attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, s
     const __m256d low = _mm256_set1_pd(-30000.0), high = _mm256_set1_pd(30000.0);
     const __m128i sixteen = _mm_set1_epi32(16);
     const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-    constexpr long long kLow = (1LL << kMeshShift) - 1;
-    // |a + k D| < 2^31 for k < cell: |D| cell + 2^kMeshShift < 2^31.
-    const long long max_step = ((1LL << 31) - (1LL << kMeshShift)) / mesh.cell - 1;
     // Clamped, x 1024, rounded, + 16: (round(s * 1024) + 16) of four pixels.
     const auto fixed = [&](__m256d v) __attribute__((target("avx2"))) {
         return _mm_add_epi32(_mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_min_pd(_mm256_max_pd(v, low), high), k1024)),
@@ -1971,30 +2048,30 @@ __attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, s
         fractions[std::size_t(k)] = double(k) / mesh.cell;
     for (int y = row_begin; y < row_end; ++y) {
         fixed_row.beginAvx2(y);
+        const int *cell_ax = fixed_row.cellA(0), *cell_lx = fixed_row.cellLow(0), *cell_dx = fixed_row.cellStep(0);
+        const int *cell_ay = fixed_row.cellA(1), *cell_ly = fixed_row.cellLow(1), *cell_dy = fixed_row.cellStep(1);
         const double *row_x = row.x(), *row_y = row.y();
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         int x = 0;
         // Cell by cell (a cell holds whole groups of eight: its width is a multiple of 16).
         for (int i = 0; x + 8 <= dst_width; ++i) {
             const int cell_end = std::min(dst_width, (i + 1) * mesh.cell);
+            if (fixed_row.fast(i)) {
+                const __m256i dx = _mm256_set1_epi32(cell_dx[i]), dy = _mm256_set1_epi32(cell_dy[i]);
+                const __m256i ax = _mm256_set1_epi32(cell_ax[i]), ay = _mm256_set1_epi32(cell_ay[i]);
+                __m256i fx = _mm256_add_epi32(_mm256_set1_epi32(cell_lx[i]), _mm256_mullo_epi32(dx, lanes));
+                __m256i fy = _mm256_add_epi32(_mm256_set1_epi32(cell_ly[i]), _mm256_mullo_epi32(dy, lanes));
+                const __m256i step_x = _mm256_slli_epi32(dx, 3), step_y = _mm256_slli_epi32(dy, 3);
+                for (; x + 8 <= cell_end; x += 8) {
+                    pixels(_mm256_add_epi32(ax, _mm256_srai_epi32(fx, kMeshShift)),
+                           _mm256_add_epi32(ay, _mm256_srai_epi32(fy, kMeshShift)), out + 4 * x);
+                    fx = _mm256_add_epi32(fx, step_x);
+                    fy = _mm256_add_epi32(fy, step_y);
+                }
+                continue;
+            }
             if (fixed_row.plain(i)) {
                 const long long dx = fixed_row.dx(i), dy = fixed_row.dy(i);
-                if (std::abs(dx) <= max_step && std::abs(dy) <= max_step) {
-                    const long long bx = fixed_row.nx(i) + kMeshRound, by = fixed_row.ny(i) + kMeshRound;
-                    const __m256i ax = _mm256_set1_epi32(int(bx >> kMeshShift)), ay = _mm256_set1_epi32(int(by >> kMeshShift));
-                    __m256i fx = _mm256_add_epi32(_mm256_set1_epi32(int(bx & kLow)),
-                                                  _mm256_mullo_epi32(_mm256_set1_epi32(int(dx)), lanes));
-                    __m256i fy = _mm256_add_epi32(_mm256_set1_epi32(int(by & kLow)),
-                                                  _mm256_mullo_epi32(_mm256_set1_epi32(int(dy)), lanes));
-                    const __m256i step_x = _mm256_set1_epi32(int(8 * dx)), step_y = _mm256_set1_epi32(int(8 * dy));
-                    for (; x + 8 <= cell_end; x += 8) {
-                        pixels(_mm256_add_epi32(ax, _mm256_srai_epi32(fx, kMeshShift)),
-                               _mm256_add_epi32(ay, _mm256_srai_epi32(fy, kMeshShift)), out + 4 * x);
-                        fx = _mm256_add_epi32(fx, step_x);
-                        fy = _mm256_add_epi32(fy, step_y);
-                    }
-                    continue;
-                }
                 for (; x + 8 <= cell_end; x += 8) {
                     alignas(32) int xv[8], yv[8];
                     const int k0 = x - i * mesh.cell;
