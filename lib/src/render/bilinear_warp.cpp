@@ -1470,8 +1470,10 @@ inline int cvRoundInt(double v)
 }
 
 // One output pixel at fixed-point position (X, Y) (1/32 px), any position.
-inline void samplePixelCv4(const PlaneSpan &src, int X, int Y, bool replicate, const std::uint8_t *border,
-                           std::uint8_t *out)
+// (Out of line: the kernels take it for edge pixels only, and inlining it into the
+// single-matrix kernel only makes that kernel longer.)
+__attribute__((noinline)) void samplePixelCv4(const PlaneSpan &src, int X, int Y, bool replicate,
+                                              const std::uint8_t *border, std::uint8_t *out)
 {
     const int sx = std::clamp(X >> 5, -32768, 32767), sy = std::clamp(Y >> 5, -32768, 32767);  // saturate_cast<short>
     const int fx = X & 31, fy = Y & 31;
@@ -1552,7 +1554,7 @@ public:
         sixteen_ = _mm256_set1_epi16(16);
     }
 
-    __attribute__((target("avx2"))) void operator()(__m256i X, __m256i Y, std::uint8_t *out) const
+    __attribute__((target("avx2"), always_inline)) void operator()(__m256i X, __m256i Y, std::uint8_t *out) const
     {
         const __m256i sx = _mm256_srai_epi32(X, 5), sy = _mm256_srai_epi32(Y, 5);
         // Inside: 0 <= sx <= width - 2 and 0 <= sy <= height - 2 (unsigned compares).
@@ -1587,7 +1589,8 @@ public:
 private:
     // Left tap and the one on (8 bytes) of four pixels, one per 64-bit lane, in the rows at
     // sy and sy + 1 (sx, sy: the four pixels', inside the frame).
-    __attribute__((target("avx2"))) void taps(__m128i sx, __m128i sy, __m256i &top, __m256i &bottom) const
+    __attribute__((target("avx2"), always_inline)) void taps(__m128i sx, __m128i sy, __m256i &top,
+                                                              __m256i &bottom) const
     {
         const int sx0 = _mm_cvtsi128_si32(sx), sy0 = _mm_cvtsi128_si32(sy);
         const int sx3 = _mm_extract_epi32(sx, 3), sy3 = _mm_extract_epi32(sy, 3);
@@ -1743,6 +1746,10 @@ bool meshFits(const WarpMesh &mesh, int dst_width, int row_end)
     return mesh.cell % kChunk == 0 && mesh.covers(std::max(dst_width, 1), std::max(row_end, 1));
 }
 
+template <int Channels>
+inline void sampleMeshPixelCvAt(const PlaneSpan &src, int X, int Y, bool replicate, const std::uint8_t *border,
+                                std::uint8_t *out);
+
 // One 3- or 4-byte pixel at a mesh position s, rounded to 1/32 px as OpenCV's warpAffine
 // rounds its positions ((round(s * 1024) + 16) >> 5), weighted as samplePixelCv4.
 template <int Channels>
@@ -1756,6 +1763,14 @@ inline void sampleMeshPixelCv(const PlaneSpan &src, Point2 s, bool replicate, co
     // Far outside is as good as just outside (keeps the fixed point in range).
     const int X = (cvRoundInt(std::clamp(s.x, -30000.0, 30000.0) * 1024) + 16) >> 5;
     const int Y = (cvRoundInt(std::clamp(s.y, -30000.0, 30000.0) * 1024) + 16) >> 5;
+    sampleMeshPixelCvAt<Channels>(src, X, Y, replicate, border, out);
+}
+
+// The same at the fixed-point position (X, Y) (1/32 px).
+template <int Channels>
+inline void sampleMeshPixelCvAt(const PlaneSpan &src, int X, int Y, bool replicate, const std::uint8_t *border,
+                                std::uint8_t *out)
+{
     if (Channels == 4) {
         samplePixelCv4(src, X, Y, replicate, border, out);
         return;
@@ -1781,25 +1796,231 @@ inline void sampleMeshPixelCv(const PlaneSpan &src, Point2 s, bool replicate, co
     }
 }
 
+// The 3- and 4-byte mesh warps' positions, in fixed point: each node of a row (rowAt's
+// doubles) rounded to 2^-24 px (kMeshNodeBits), and inside a cell whose four nodes lie within
+// +-29000 px the position at k px right of its left node N_i is N_i + k D_i, D_i =
+// floor((N_{i+1} - N_i) / cell); its 1/32 px (OpenCV's (round(s x 1024) + 16) >> 5, a tie at
+// 1/2048 rounded up) is (N_i + k D_i + kMeshRound) >> kMeshShift. That lies within 2^-24 px
+// x (1 + k) of alongRow's double, so a byte differs from the double positions' only where one
+// lies within ~1e-6 px of a 1/1024 step. Other cells (a node NaN or far out): alongRow's
+// doubles, clamped and rounded per pixel (sampleMeshPixelCv).
+constexpr int kMeshNodeBits = 24;
+constexpr int kMeshShift = kMeshNodeBits - 5;
+constexpr long long kMeshRound = (1LL << (kMeshNodeBits - 11)) + (1LL << (kMeshShift - 1));
+
+inline bool meshNodePlain(double v) { return std::abs(v) < 29000.0; }  // false for NaN
+
+// A node's position in 2^-24 px, rounded half to even (as the AVX2 kernel's magic-number
+// conversion); 0 where it is not plain (not used there).
+inline long long meshNodeFixed(double v)
+{
+    return meshNodePlain(v) ? std::llrint(v * double(1 << kMeshNodeBits)) : 0;
+}
+
+// floor(d / cell), a shift when the cell is a power of two.
+inline long long meshFloorDiv(long long d, int cell, int cell_shift)
+{
+    if (cell_shift >= 0)
+        return d >> cell_shift;
+    long long q = d / cell;
+    if (d % cell != 0 && d < 0)
+        --q;
+    return q;
+}
+
+inline int meshCellShift(int cell)
+{
+    for (int s = 0; s < 30; ++s)
+        if (cell == 1 << s)
+            return s;
+    return -1;
+}
+
+// The fixed-point nodes of one output row (after MeshRow::begin), and each cell's steps.
+class MeshRowFixed {
+public:
+    explicit MeshRowFixed(const WarpMesh &mesh)
+        : mesh_(mesh), row_(mesh), cell_shift_(meshCellShift(mesh.cell)), nx_(std::size_t(mesh.columns)),
+          ny_(std::size_t(mesh.columns))
+    {
+    }
+    void begin(int y)
+    {
+        row_.begin(y);
+        for (int i = 0; i < mesh_.columns; ++i) {
+            nx_[std::size_t(i)] = meshNodeFixed(row_.x()[i]);
+            ny_[std::size_t(i)] = meshNodeFixed(row_.y()[i]);
+        }
+    }
+#ifdef UAVSTAB_HAVE_X86
+    // begin's nodes four at a time: v x 2^24 + 1.5 x 2^52 leaves round(v x 2^24) (|v| <
+    // 29000: below 2^39) in the low mantissa bits, rounded half to even as llrint.
+    __attribute__((target("avx2"))) void beginAvx2(int y)
+    {
+        row_.begin(y);
+        const __m256d scale = _mm256_set1_pd(double(1 << kMeshNodeBits)), magic = _mm256_set1_pd(6755399441055744.0);
+        const __m256d limit = _mm256_set1_pd(29000.0), abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffLL));
+        const __m256i magic_bits = _mm256_castpd_si256(magic);
+        int i = 0;
+        for (; i + 4 <= mesh_.columns; i += 4)
+            for (int axis = 0; axis < 2; ++axis) {
+                const double *v = axis ? row_.y() : row_.x();
+                long long *n = (axis ? ny_ : nx_).data();
+                const __m256d d = _mm256_loadu_pd(v + i);
+                const __m256d plain = _mm256_cmp_pd(_mm256_and_pd(d, abs_mask), limit, _CMP_LT_OQ);
+                const __m256i bits =
+                    _mm256_sub_epi64(_mm256_castpd_si256(_mm256_add_pd(_mm256_mul_pd(d, scale), magic)), magic_bits);
+                _mm256_storeu_si256(reinterpret_cast<__m256i *>(n + i),
+                                    _mm256_and_si256(bits, _mm256_castpd_si256(plain)));
+            }
+        for (; i < mesh_.columns; ++i) {
+            nx_[std::size_t(i)] = meshNodeFixed(row_.x()[i]);
+            ny_[std::size_t(i)] = meshNodeFixed(row_.y()[i]);
+        }
+        planCellsAvx2();
+    }
+
+    // The AVX2 kernel's 32-bit lanes for cell i (after beginAvx2): when fast(i), the position
+    // k px into the cell is A + ((a + k D) >> kMeshShift), A 2^kMeshShift + a = N_i +
+    // kMeshRound, on each axis, with no 32-bit overflow for k < cell.
+    bool fast(int i) const { return fast_[std::size_t(i)] != 0; }
+    const int *cellA(int axis) const { return (axis ? ay_ : ax_).data(); }
+    const int *cellLow(int axis) const { return (axis ? ly_ : lx_).data(); }
+    const int *cellStep(int axis) const { return (axis ? dy_ : dx_).data(); }
+#endif
+    const MeshRow &row() const { return row_; }
+    // Whether cell i's positions are fixed point (its four nodes plain).
+    bool plain(int i) const
+    {
+        return meshNodePlain(row_.x()[i]) && meshNodePlain(row_.x()[i + 1]) && meshNodePlain(row_.y()[i]) &&
+               meshNodePlain(row_.y()[i + 1]);
+    }
+    long long nx(int i) const { return nx_[std::size_t(i)]; }
+    long long ny(int i) const { return ny_[std::size_t(i)]; }
+    long long dx(int i) const { return meshFloorDiv(nx_[std::size_t(i) + 1] - nx_[std::size_t(i)], mesh_.cell, cell_shift_); }
+    long long dy(int i) const { return meshFloorDiv(ny_[std::size_t(i) + 1] - ny_[std::size_t(i)], mesh_.cell, cell_shift_); }
+    // The cell of column x (the last one extends past its right node) and x's place in it.
+    int cellOf(int x, int &k) const
+    {
+        const int i = std::min(x / mesh_.cell, mesh_.columns - 2);
+        k = x - i * mesh_.cell;
+        return i;
+    }
+
+private:
+#ifdef UAVSTAB_HAVE_X86
+    // fast_, A, a and D of every cell, four cells at a time where the cell is a power of two
+    // (a shift: floor((N_{i+1} - N_i) / cell)'s low 32 bits, which are D's when it is fast).
+    __attribute__((target("avx2"))) void planCellsAvx2()
+    {
+        const int cells = mesh_.columns - 1;
+        if (ax_.empty()) {
+            for (auto *v : {&ax_, &lx_, &dx_, &ay_, &ly_, &dy_})
+                v->resize(std::size_t(cells) + 4);
+            fast_.resize(std::size_t(cells) + 4);
+        }
+        // |N_{i+1} - N_i| <= limit: |D| <= limit / cell, and |a + k D| < 2^kMeshShift + (cell - 1) |D| < 2^31.
+        const long long limit = ((1LL << 31) - (1LL << kMeshShift)) / mesh_.cell - 1;
+        const long long span_limit = limit * mesh_.cell;
+        int i = 0;
+        if (cell_shift_ >= 0) {
+            const __m256i round = _mm256_set1_epi64x(kMeshRound), low = _mm256_set1_epi64x((1LL << kMeshShift) - 1);
+            const __m256i hi = _mm256_set1_epi64x(span_limit), lo = _mm256_set1_epi64x(-span_limit);
+            const __m256i pick = _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0);
+            const __m128i shift = _mm_cvtsi32_si128(cell_shift_), node_shift = _mm_cvtsi32_si128(kMeshShift);
+            const auto low32 = [&](__m256i v) __attribute__((target("avx2"), always_inline)) {
+                return _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(v, pick));
+            };
+            for (; i + 4 <= cells; i += 4) {
+                __m256i ok = _mm256_set1_epi64x(-1);
+                for (int axis = 0; axis < 2; ++axis) {
+                    const long long *n = (axis ? ny_ : nx_).data() + i;
+                    const double *v = (axis ? row_.y() : row_.x()) + i;
+                    const __m256i n0 = _mm256_loadu_si256(reinterpret_cast<const __m256i *>(n));
+                    const __m256i n1 = _mm256_loadu_si256(reinterpret_cast<const __m256i *>(n + 1));
+                    const __m256i diff = _mm256_sub_epi64(n1, n0);
+                    const __m256i b = _mm256_add_epi64(n0, round);
+                    // Logical shifts: their low 32 bits are the arithmetic shifts'.
+                    _mm_storeu_si128(reinterpret_cast<__m128i *>((axis ? ay_ : ax_).data() + i),
+                                     low32(_mm256_srl_epi64(b, node_shift)));
+                    _mm_storeu_si128(reinterpret_cast<__m128i *>((axis ? ly_ : lx_).data() + i),
+                                     low32(_mm256_and_si256(b, low)));
+                    _mm_storeu_si128(reinterpret_cast<__m128i *>((axis ? dy_ : dx_).data() + i),
+                                     low32(_mm256_srl_epi64(diff, shift)));
+                    const __m256d limit_pd = _mm256_set1_pd(29000.0);
+                    const __m256d abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffLL));
+                    const __m256d p0 = _mm256_cmp_pd(_mm256_and_pd(_mm256_loadu_pd(v), abs_mask), limit_pd, _CMP_LT_OQ);
+                    const __m256d p1 =
+                        _mm256_cmp_pd(_mm256_and_pd(_mm256_loadu_pd(v + 1), abs_mask), limit_pd, _CMP_LT_OQ);
+                    const __m256i out = _mm256_or_si256(_mm256_cmpgt_epi64(diff, hi), _mm256_cmpgt_epi64(lo, diff));
+                    ok = _mm256_andnot_si256(out, _mm256_and_si256(ok, _mm256_castpd_si256(_mm256_and_pd(p0, p1))));
+                }
+                const int mask = _mm256_movemask_pd(_mm256_castsi256_pd(ok));
+                for (int j = 0; j < 4; ++j)
+                    fast_[std::size_t(i + j)] = std::uint8_t((mask >> j) & 1);
+            }
+        }
+        for (; i < cells; ++i) {
+            const long long d[2] = {dx(i), dy(i)}, n[2] = {nx(i), ny(i)};
+            bool ok = plain(i);
+            for (int axis = 0; axis < 2; ++axis) {
+                const long long diff = (axis ? ny_ : nx_)[std::size_t(i) + 1] - (axis ? ny_ : nx_)[std::size_t(i)];
+                ok = ok && std::abs(diff) <= span_limit;
+                const long long b = n[axis] + kMeshRound;
+                (axis ? ay_ : ax_)[std::size_t(i)] = int(b >> kMeshShift);
+                (axis ? ly_ : lx_)[std::size_t(i)] = int(b & ((1LL << kMeshShift) - 1));
+                (axis ? dy_ : dx_)[std::size_t(i)] = ok ? int(d[axis]) : 0;
+            }
+            fast_[std::size_t(i)] = ok;
+        }
+    }
+    std::vector<int> ax_, lx_, dx_, ay_, ly_, dy_;
+    std::vector<std::uint8_t> fast_;
+#endif
+    const WarpMesh &mesh_;
+    MeshRow row_;
+    int cell_shift_;
+    std::vector<long long> nx_, ny_;
+};
+
+// One 3- or 4-byte pixel of column x of the row `row` holds.
+template <int Channels>
+inline void sampleMeshPixelFixed(const PlaneSpan &src, const MeshRowFixed &row, int x, bool replicate,
+                                 const std::uint8_t *border, std::uint8_t *out)
+{
+    int k;
+    const int i = row.cellOf(x, k);
+    if (!row.plain(i)) {
+        sampleMeshPixelCv<Channels>(src, row.row().at(x), replicate, border, out);
+        return;
+    }
+    const int X = int((row.nx(i) + row.dx(i) * k + kMeshRound) >> kMeshShift);
+    const int Y = int((row.ny(i) + row.dy(i) * k + kMeshRound) >> kMeshShift);
+    sampleMeshPixelCvAt<Channels>(src, X, Y, replicate, border, out);
+}
+
 template <int Channels>
 void warpMeshRowsCv(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                     int row_end, const WarpMesh &mesh, bool replicate, const std::uint8_t border[4])
 {
-    MeshRow row(mesh);
+    MeshRowFixed row(mesh);
     for (int y = row_begin; y < row_end; ++y) {
         row.begin(y);
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         for (int x = 0; x < dst_width; ++x)
-            sampleMeshPixelCv<Channels>(src, row.at(x), replicate, border, out + Channels * x);
+            sampleMeshPixelFixed<Channels>(src, row, x, replicate, border, out + Channels * x);
     }
 }
 
 #ifdef UAVSTAB_HAVE_X86
 
 // warpMeshRowsCv<4> eight pixels at a time (Cv4PixelsAvx2): eight columns from a multiple of
-// 8 lie in one cell (a multiple of 16 wide), where alongRow's expressions, evaluated in
-// double vectors, give the same positions; cvtpd rounds half to even as cvRound. Groups
-// with a NaN position and the columns past the last group: per pixel.
+// 8 lie in one cell (a multiple of 16 wide). A fixed-point cell: its 32-bit lanes hold
+// N_i + kMeshRound split as A 2^kMeshShift + a, and a + k D_i (when that cannot overflow),
+// so that X = A + ((a + k D_i) >> kMeshShift), the same integer; each group of eight adds
+// 8 D_i. Other cells: alongRow's expressions in double vectors (the same doubles; cvtpd
+// rounds half to even as cvRound); groups with a NaN position and the columns past the
+// last group: per pixel.
 __attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, std::uint8_t *dst, int dst_stride,
                                                          int dst_width, int row_begin, int row_end,
                                                          const WarpMesh &mesh, bool replicate,
@@ -1810,10 +2031,12 @@ __attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, s
         return;
     }
     const Cv4PixelsAvx2 pixels(src, replicate, border);
-    MeshRow row(mesh);
+    MeshRowFixed fixed_row(mesh);
+    const MeshRow &row = fixed_row.row();
     const __m256d k1024 = _mm256_set1_pd(1024.0);
     const __m256d low = _mm256_set1_pd(-30000.0), high = _mm256_set1_pd(30000.0);
     const __m128i sixteen = _mm_set1_epi32(16);
+    const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     // Clamped, x 1024, rounded, + 16: (round(s * 1024) + 16) of four pixels.
     const auto fixed = [&](__m256d v) __attribute__((target("avx2"))) {
         return _mm_add_epi32(_mm256_cvtpd_epi32(_mm256_mul_pd(_mm256_min_pd(_mm256_max_pd(v, low), high), k1024)),
@@ -1824,20 +2047,46 @@ __attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, s
     for (int k = 0; k < mesh.cell; ++k)
         fractions[std::size_t(k)] = double(k) / mesh.cell;
     for (int y = row_begin; y < row_end; ++y) {
-        row.begin(y);
+        fixed_row.beginAvx2(y);
+        const int *cell_ax = fixed_row.cellA(0), *cell_lx = fixed_row.cellLow(0), *cell_dx = fixed_row.cellStep(0);
+        const int *cell_ay = fixed_row.cellA(1), *cell_ly = fixed_row.cellLow(1), *cell_dy = fixed_row.cellStep(1);
         const double *row_x = row.x(), *row_y = row.y();
         std::uint8_t *out = dst + std::size_t(y) * dst_stride;
         int x = 0;
         // Cell by cell (a cell holds whole groups of eight: its width is a multiple of 16).
         for (int i = 0; x + 8 <= dst_width; ++i) {
             const int cell_end = std::min(dst_width, (i + 1) * mesh.cell);
+            if (fixed_row.fast(i)) {
+                const __m256i dx = _mm256_set1_epi32(cell_dx[i]), dy = _mm256_set1_epi32(cell_dy[i]);
+                const __m256i ax = _mm256_set1_epi32(cell_ax[i]), ay = _mm256_set1_epi32(cell_ay[i]);
+                __m256i fx = _mm256_add_epi32(_mm256_set1_epi32(cell_lx[i]), _mm256_mullo_epi32(dx, lanes));
+                __m256i fy = _mm256_add_epi32(_mm256_set1_epi32(cell_ly[i]), _mm256_mullo_epi32(dy, lanes));
+                const __m256i step_x = _mm256_slli_epi32(dx, 3), step_y = _mm256_slli_epi32(dy, 3);
+                for (; x + 8 <= cell_end; x += 8) {
+                    pixels(_mm256_add_epi32(ax, _mm256_srai_epi32(fx, kMeshShift)),
+                           _mm256_add_epi32(ay, _mm256_srai_epi32(fy, kMeshShift)), out + 4 * x);
+                    fx = _mm256_add_epi32(fx, step_x);
+                    fy = _mm256_add_epi32(fy, step_y);
+                }
+                continue;
+            }
+            if (fixed_row.plain(i)) {
+                const long long dx = fixed_row.dx(i), dy = fixed_row.dy(i);
+                for (; x + 8 <= cell_end; x += 8) {
+                    alignas(32) int xv[8], yv[8];
+                    const int k0 = x - i * mesh.cell;
+                    for (int j = 0; j < 8; ++j) {
+                        xv[j] = int((fixed_row.nx(i) + dx * (k0 + j) + kMeshRound) >> kMeshShift);
+                        yv[j] = int((fixed_row.ny(i) + dy * (k0 + j) + kMeshRound) >> kMeshShift);
+                    }
+                    pixels(_mm256_load_si256(reinterpret_cast<const __m256i *>(xv)),
+                           _mm256_load_si256(reinterpret_cast<const __m256i *>(yv)), out + 4 * x);
+                }
+                continue;
+            }
             const double lx = row_x[i], ly = row_y[i], rx = row_x[i + 1], ry = row_y[i + 1];
             const __m256d left_x = _mm256_set1_pd(lx), span_x = _mm256_set1_pd(rx - lx);
             const __m256d left_y = _mm256_set1_pd(ly), span_y = _mm256_set1_pd(ry - ly);
-            // Nodes well inside +-30000 px: every position of the cell lies between them
-            // (left + span s, s in [0, 1)), so neither NaN nor clamped: those tests go.
-            const bool plain = std::abs(lx) < 29000.0 && std::abs(rx) < 29000.0 && std::abs(ly) < 29000.0 &&
-                               std::abs(ry) < 29000.0;
             for (; x + 8 <= cell_end; x += 8) {
                 const double *f = fractions.data() + (x - i * mesh.cell);
                 const __m256d s0 = _mm256_loadu_pd(f), s1 = _mm256_loadu_pd(f + 4);
@@ -1845,18 +2094,6 @@ __attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, s
                 const __m256d sx1 = _mm256_add_pd(left_x, _mm256_mul_pd(span_x, s1));
                 const __m256d sy0 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s0));
                 const __m256d sy1 = _mm256_add_pd(left_y, _mm256_mul_pd(span_y, s1));
-                if (plain) {
-                    const auto fixed_inside = [&](__m256d v) __attribute__((target("avx2"), always_inline)) {
-                        return _mm256_cvtpd_epi32(_mm256_mul_pd(v, k1024));
-                    };
-                    const __m256i sixteen8 = _mm256_set1_epi32(16);
-                    const __m256i X = _mm256_srai_epi32(
-                        _mm256_add_epi32(_mm256_set_m128i(fixed_inside(sx1), fixed_inside(sx0)), sixteen8), 5);
-                    const __m256i Y = _mm256_srai_epi32(
-                        _mm256_add_epi32(_mm256_set_m128i(fixed_inside(sy1), fixed_inside(sy0)), sixteen8), 5);
-                    pixels(X, Y, out + 4 * x);
-                    continue;
-                }
                 const __m256d nan = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(sx0, sx0, _CMP_UNORD_Q),
                                                               _mm256_cmp_pd(sx1, sx1, _CMP_UNORD_Q)),
                                                  _mm256_or_pd(_mm256_cmp_pd(sy0, sy0, _CMP_UNORD_Q),
@@ -1872,7 +2109,7 @@ __attribute__((target("avx2"))) void warpMeshRowsCv4Avx2(const PlaneSpan &src, s
             }
         }
         for (; x < dst_width; ++x)
-            sampleMeshPixelCv<4>(src, row.at(x), replicate, border, out + 4 * x);
+            sampleMeshPixelFixed<4>(src, fixed_row, x, replicate, border, out + 4 * x);
     }
 }
 

@@ -124,12 +124,19 @@ bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stri
                            const std::uint8_t border[4], WarpKernel kernel);
 
 // 4 interleaved bytes per pixel at WarpMesh::at rounded to 1/32 px and weighted as OpenCV's
-// fixed-point bilinear (warpPlaneBilinear4's arithmetic). The AVX2 kernel (where this CPU
-// has it) takes eight pixels at a time as warpPlaneBilinear4 does, the positions computed in
-// double vectors cell by cell: the bench's 1080p BGRx frame takes 1.93-2.11x the
-// single-matrix cost, median of five runs 2.03x (was 2.3x; meshes included, same command as
-// above); the scalar one (also the reference the tests compare it with) per pixel, over ten
-// times that. A kernel given: false when it is not available or is Simd128 (there is none).
+// fixed-point bilinear (warpPlaneBilinear4's arithmetic). The positions: in a cell whose
+// nodes lie within +-29000 px, in fixed point (each row's nodes rounded to 2^-24 px, a
+// per-pixel step floor((right - left) / cell) of those units), within ~1e-6 px of at()'s
+// doubles (the bench's fisheye frame: 6 bytes in 8.3 million differ from rounding at()'s
+// doubles, by 1); elsewhere at()'s doubles. The AVX2 kernel (where this CPU has it) takes
+// eight pixels at a time as warpPlaneBilinear4 does, a row's cells planned four at a time
+// (A, a, D in 32-bit lanes) and its positions a 32-bit add and shift per eight per axis:
+// the bench's 1080p BGRx frame (`uavstab-bench-lens --only cost`, meshes included) takes
+// 1.22-1.32x the single-matrix cost, median of 12 runs 1.26x (was 1.97-2.32x, median 2.06x:
+// double positions, the window taps not inlined; same command, alternated on the same
+// noisy machine); the scalar one (also the reference the tests compare it with) per pixel,
+// over ten times that. A kernel given: false when it is not available or is Simd128 (there
+// is none).
 bool warpPlaneBilinear4Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                             int row_end, const WarpMesh &mesh, bool replicate, const std::uint8_t border[4]);
 bool warpPlaneBilinear4Mesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
