@@ -297,6 +297,18 @@ FlightResult flyHazyUncached(const synthetic::ShakyFlight &flight, bool osd, con
     return result;
 }
 
+// The default flight (seed 1), 150 frames, every shake amplitude times `strength`.
+synthetic::FlightOptions hazyFlightWithShake(double strength)
+{
+    synthetic::FlightOptions options;
+    options.frames = 150;
+    options.noise_px *= strength;
+    options.band_px *= strength;
+    options.rotation_noise_deg *= strength;
+    options.rotation_band_deg *= strength;
+    return options;
+}
+
 // The same run twice gives the same result: the tests share them (the default flight only).
 FlightResult flyHazy(const synthetic::ShakyFlight &flight, bool osd, const std::string &exclude,
                      std::optional<bool> exclude_static = false, bool haze = true)
@@ -420,13 +432,7 @@ TEST(Exclude, WithDefaultSettingsTheOsdCostsLessThanTenPercent)
 // correction (on by default) changes nothing (within 5 % of rolling_shutter=off).
 TEST(Exclude, AnOsdIsNotTakenForARollingShutter)
 {
-    synthetic::FlightOptions options;
-    options.frames = 150;
-    options.noise_px *= 2.0;
-    options.band_px *= 2.0;
-    options.rotation_noise_deg *= 2.0;
-    options.rotation_band_deg *= 2.0;
-    const synthetic::ShakyFlight flight(options);
+    const synthetic::ShakyFlight flight(hazyFlightWithShake(2.0));
     const FlightResult clean = flyHazyUncached(flight, false, "", std::nullopt, true);
     const FlightResult osd = flyHazyUncached(flight, true, "", std::nullopt, true);
     const FlightResult off = flyHazyUncached(flight, true, "", std::nullopt, true, RollingShutter::Off);
@@ -446,13 +452,7 @@ TEST(Exclude, AnOsdIsNotTakenForARollingShutter)
 // against 3.2).
 TEST(Exclude, AnOsdCostsLittleUnderThreeTimesTheShake)
 {
-    synthetic::FlightOptions options;
-    options.frames = 150;
-    options.noise_px *= 3.0;
-    options.band_px *= 3.0;
-    options.rotation_noise_deg *= 3.0;
-    options.rotation_band_deg *= 3.0;
-    const synthetic::ShakyFlight flight(options);
+    const synthetic::ShakyFlight flight(hazyFlightWithShake(3.0));
     const FlightResult clean = flyHazyUncached(flight, false, "", std::nullopt, true);
     const FlightResult osd = flyHazyUncached(flight, true, "", std::nullopt, true);
     std::printf("hazy flight, three times the shake (input %.3f px), residual jitter from frame 30 on: without OSD "
@@ -468,14 +468,7 @@ TEST(Exclude, AnOsdCostsLittleUnderThreeTimesTheShake)
 // the OSD); matched again on twice the corners, detected afresh, it is not (0.78 px).
 TEST(Exclude, AFrameWhoseTracksDriftOntoAnUnlearntOsdIsMatchedAgain)
 {
-    synthetic::FlightOptions options;
-    options.frames = 150;
-    options.seed = 1;
-    options.noise_px *= 2.0;
-    options.band_px *= 2.0;
-    options.rotation_noise_deg *= 2.0;
-    options.rotation_band_deg *= 2.0;
-    const synthetic::ShakyFlight flight(options);
+    const synthetic::ShakyFlight flight(hazyFlightWithShake(2.0));
     const RollingShutter rs = StabilizerConfig{}.rolling_shutter;
     const FlightResult clean = flyHazyUncached(flight, false, "", std::nullopt, true, rs, 5);
     const FlightResult osd = flyHazyUncached(flight, true, "", std::nullopt, true, rs, 5);
