@@ -183,8 +183,25 @@ LensProfile readOpenCvCalibration(const std::string &path)
     }
 }
 
+// OpenCV 4.6's YAML parser never returns on some malformed files (an indented `a:1` and then a
+// line `--G-`, found by tests/fuzz/fuzz_lens_profile.cpp): a line that begins with "--" but is
+// no document marker ("---") is refused before the file reaches it. Calibration files have
+// none.
+void refuseWhatHangsOpenCvsParser(const std::string &path)
+{
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    for (int number = 1; std::getline(in, line); ++number) {
+        const std::size_t first = line.find_first_not_of(" \t");
+        if (first != std::string::npos && line.compare(first, 2, "--") == 0 && line.compare(first, 3, "---") != 0)
+            throw LensProfileError(path, "", "is not a readable OpenCV calibration (line " + std::to_string(number) +
+                                                 " begins with \"--\")");
+    }
+}
+
 LensProfile readOpenCvCalibrationFields(const std::string &path)
 {
+    refuseWhatHangsOpenCvsParser(path);
     cv::FileStorage fs;
     try {
         if (!fs.open(path, cv::FileStorage::READ))
