@@ -146,13 +146,15 @@ L1PathPlanner::Settings l1Settings(const std::string &spec)
         {"steady_pull", &s.steady_pull},         {"steady_from", &s.steady_from},
         {"steady_full", &s.steady_full},         {"stiffness", &s.stiffness},
         {"young_slope_prior", &s.young_slope_prior}, {"translation_reserve", &s.translation_reserve},
-        {"scale_share", &s.scale_share}, {"speed_weight", &s.speed_weight}, {"crop", &s.crop}};
+        {"scale_share", &s.scale_share}, {"speed_weight", &s.speed_weight}, {"crop", &s.crop},
+        {"room_per_shake", &s.room_per_shake}};
     std::map<std::string, int *> ints{{"rounds", &s.rounds},
                                       {"catch_up_window", &s.catch_up_window},
                                       {"catch_up_max_lookahead", &s.catch_up_max_lookahead},
                                       {"full_tube_lookahead", &s.full_tube_lookahead},
                                       {"steady_window", &s.steady_window},
                                       {"extension", &s.extension},
+                                      {"shake_crop_frames", &s.shake_crop_frames},
                                       {"prediction_frames", &s.prediction_frames}};
     std::stringstream ss(spec);
     std::string item;
@@ -160,7 +162,9 @@ L1PathPlanner::Settings l1Settings(const std::string &spec)
         const std::size_t eq = item.find('=');
         const std::string key = item.substr(0, eq);
         const double value = eq == std::string::npos ? 0.0 : std::stod(item.substr(eq + 1));
-        if (reals.count(key))
+        if (key == "shake_crop")
+            s.shake_crop = value != 0.0;
+        else if (reals.count(key))
             *reals[key] = value;
         else if (ints.count(key))
             *ints[key] = int(value);

@@ -88,6 +88,8 @@ void L1PathPlanner::restart()
     past_change_ = {0.0, 0.0, 0.0, 0.0};
     shake_variance_ = {0.0, 0.0, 0.0, 0.0};
     shake_frames_ = 0;
+    // A new scene's shake is judged afresh; a cut hides the change of zoom.
+    shake_crop_ = 0.0;
     longest_lookahead_ = 0;
     for (auto &v : last_plan_)
         v.clear();
@@ -239,7 +241,22 @@ PlannedFrame L1PathPlanner::plan(const PlanRequest &request)
     }
     const int rounds = warm ? settings_.rounds : settings_.start_rounds;
 
-    const double zoom = zoomForCrop(settings_.crop);
+    // Strong shake: the crop the shake's level needs, per axis (a turn moves the corners
+    // by angle times the other half size), grown into slowly so that the zoom does not pump.
+    const double base_log_zoom = std::log(zoomForCrop(settings_.crop));
+    if (settings_.shake_crop) {
+        const double hx = 0.5 * double(request.width), hy = 0.5 * double(request.height);
+        const double turn = shake_variance_[kAngle] / (half_diagonal * half_diagonal);
+        const double sx = std::sqrt(shake_variance_[kX] + turn * hy * hy);
+        const double sy = std::sqrt(shake_variance_[kY] + turn * hx * hx);
+        const double need = settings_.room_per_shake * std::max(sx / hx, sy / hy);
+        const double widest = 1.0 - std::exp(-(1.0 + settings_.scale_share) * base_log_zoom);
+        const double target =
+            widest > settings_.crop ? std::clamp((need - settings_.crop) / (widest - settings_.crop), 0.0, 1.0) : 0.0;
+        const double step = 1.0 / double(std::max(1, settings_.shake_crop_frames));
+        shake_crop_ += std::clamp(target - shake_crop_, -0.25 * step, step);
+    }
+    const double zoom = std::exp(base_log_zoom * (1.0 + settings_.scale_share * shake_crop_));
     const CropWindow window(request.width, request.height, zoom);
     const Params past_change = relative(past_change_, false);
     const double reach =
@@ -268,7 +285,7 @@ PlannedFrame L1PathPlanner::plan(const PlanRequest &request)
 
     // Log scale, then angle, then translation, each in the room the previous one left.
     const double scale_room =
-        std::max(0.0, settings_.scale_share * std::log(window.hx / window.wx) - kRoomEpsilon) * unit[kLogScale];
+        std::max(0.0, settings_.scale_share * (1.0 - shake_crop_) * base_log_zoom - kRoomEpsilon) * unit[kLogScale];
     problems[kLogScale].room.assign(horizon, scale_room);
     planAxis(kLogScale);
     std::vector<double> relative_scale(horizon);

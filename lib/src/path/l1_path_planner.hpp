@@ -26,6 +26,11 @@
 // 2. The crop. The smallest, smoothest change to the L1 path that keeps every known frame's
 //    crop window inside that frame (fitAxis in path_terms.hpp): no border ever shows.
 //
+// Strong shake. Where three times the shake's RMS is more than the crop leaves, no path can
+// hold still inside it; the crop then takes over the room the scale correction had
+// (`shake_crop`), over three seconds, so that the zoom never passes what a scale correction
+// already reaches (1.098 at crop 0.08) and does not pump.
+//
 // Deliberate moves. A steady move (the followed path's velocity over its newest second,
 // the look-ahead included, far above its spread: a drift, a pan, a slow yaw) is followed,
 // not ridden: the path is pulled towards the followed path (an L1 pull, `steady_pull`),
@@ -49,6 +54,10 @@
 //   extension       delay 0: 0.65 px, 34 without (the horizon of one frame cannot see a move)
 //   shake_margin    the drone case at 2x, delay 5: 3.36 px, 3.85 without; manoeuvres at
 //                   delay 20: 1.88, 2.44 (it costs the sway flights 6.58 px against 5.53)
+//   shake_crop      strong shake (strong720 1x / 2x, delay 20): 0.89 / 9.80 px, 1.28 / 11.16
+//                   without; delay 5: 1.23 / 10.01, 1.52 / 11.33; the drone case at 2x, delay
+//                   20: 2.02, 2.84 (it costs the manoeuvre flights at 2x, delay 5, 4 px of
+//                   lag: 41.1 against 36.9); where the shake fits the crop nothing changes
 //
 // Solver: iteratively reweighted least squares (each |u| majorised by u^2 / 2|u0| +
 // |u0| / 2; each round a banded quadratic program with the tube as bounds, box_qp.hpp),
@@ -72,6 +81,14 @@ class L1PathPlanner : public PathPlanner {
 public:
     struct Settings {
         double crop = 0.08;  // share of width and height hidden by the zoom
+        // Strong shake: while the shake needs more room than `crop` leaves (room_per_shake
+        // times its RMS per axis), the scale correction's room (scale_share) goes to the crop
+        // instead, so the zoom never exceeds what a scale correction could already reach
+        // (1.098 at crop 0.08). In over shake_crop_frames (three seconds at 30 fps: a zoom
+        // that creeps is not seen, one that pumps is), out four times slower.
+        bool shake_crop = true;
+        double room_per_shake = 3.0;
+        int shake_crop_frames = 90;
         // Stage 2 on: no border ever shows. Off (limit-to-crop=false): the output follows
         // stage 1, which keeps to the crop only by paying for leaving it, and borders may show.
         bool keep_inside = true;
@@ -140,6 +157,7 @@ private:
     std::deque<Params> past_follow_gap_;  // camera minus followed path
     Params past_change_{};               // stage 2's committed change
     Params shake_variance_{};            // per parameter, px^2
+    double shake_crop_ = 0.0;            // share of the scale's room given to the crop now
     int shake_frames_ = 0;
     std::size_t longest_lookahead_ = 0;  // in this segment
     std::array<std::vector<double>, 4> last_plan_;  // the previous frame's stage 1 plan

@@ -413,6 +413,44 @@ TEST(L1Planner, AHoverUnderShakeInsideTheMarginDoesNotMove)
     }
 }
 
+TEST(L1Planner, TheCropGrowsSlowlyUnderStrongShakeAndOnlyThere)
+{
+    // 640x360, crop 8 %: 14 px of room a side in y. Shake of 3 px RMS per axis fits it and
+    // keeps the zoom of `crop`; 8 px RMS does not (three times it is 24 px), and the crop
+    // grows slowly, never showing border, into the room a scale correction had: the zoom
+    // stays within what the scale correction could reach (1.087^1.12 = 1.098).
+    const double base = zoomForCrop(0.08), grown = std::pow(base, 1.12);
+    for (std::uint32_t seed = 1; seed <= 2; ++seed)
+    for (double shake : {3.0, 8.0}) {
+        std::mt19937 rng(seed);
+        const int n = 300;
+        const auto bx = bandNoise(rng, n, 2.0, 8.0), by = bandNoise(rng, n, 2.0, 8.0);
+        std::vector<Similarity> path;
+        for (int i = 0; i < n; ++i)
+            path.push_back({shake * bx[std::size_t(i)], shake * by[std::size_t(i)], 0.0, 1.0});
+        for (int delay : {0, 20}) {
+            auto planner = l1Planner();
+            const auto planned = planPath(*planner, path, delay);
+            double largest = 0.0, fastest = 0.0;
+            for (std::size_t i = 0; i < planned.size(); ++i) {
+                largest = std::max(largest, planned[i].zoom);
+                if (i > 0)
+                    fastest = std::max(fastest, std::abs(planned[i].zoom - planned[i - 1].zoom));
+                ASSERT_TRUE(coversFrame(planned[i].output_to_input, kWidth, kHeight)) << "frame " << i;
+            }
+            std::printf("seed %u, shake %.0f px, delay %2d: zoom %.4f at the end, at most %.4f, by %.6f a frame\n", seed,
+                        shake, delay, planned.back().zoom, largest, fastest);
+            if (shake < 5.0) {
+                EXPECT_NEAR(largest, base, 1e-9) << "seed " << seed << " delay " << delay;
+            } else {
+                EXPECT_GT(planned.back().zoom, base + 0.9 * (grown - base)) << "seed " << seed << " delay " << delay;
+                EXPECT_LE(largest, grown + 1e-9) << "seed " << seed << " delay " << delay;
+                EXPECT_LT(fastest, 0.0003) << "seed " << seed << " delay " << delay;
+            }
+        }
+    }
+}
+
 TEST(L1Planner, SwayInsideTheMarginIsAbsorbed)
 {
     // A handheld camera meant to be still: 6 px RMS of 0.3-1.2 Hz sway in x, 2 px in y, a
