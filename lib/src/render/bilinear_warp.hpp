@@ -109,12 +109,12 @@ void warpPlaneBilinear16Rows(const PlaneSpan &src, std::uint8_t *dst, int dst_st
 // lane offsets come from the chunk's m0 rounded to 2^-25 and m3 to 2^-19 (the same as the
 // matrix warp's whenever they are multiples of those; else an offset may differ by 1/1024
 // px: on an affine mesh with arbitrary entries about 7 bytes in 10^5 differ from the matrix
-// warp's). Cost: the AVX2 kernel plans a row's chunks in one pass from the row's nodes and
-// spends three 16-bit multiplies per chunk vector on its offsets; the 1080p I420 frame of
-// `uavstab-bench-lens --quick --only cost` (150-degree fisheye, 16-px cells; one thread,
-// the meshes, about 0.35 ms, included) takes 1.36-1.60x the single-matrix warp's CPU time,
-// median of five runs 1.44x (was 1.9x; noisy shared machine, the same command); the warp
-// alone about 1.33x.
+// warp's). Cost: the AVX2 kernel plans a row's chunks in one pass from the row's nodes
+// (about half of the mesh warp's time) and spends three 16-bit multiplies per chunk vector
+// on its offsets; the 1080p I420 frame of `uavstab-bench-lens --only cost` (150-degree
+// fisheye, 16-px cells, chroma planes paired by warpPlanePairBilinearMesh; one thread, the
+// meshes, 0.22 ms, included) takes 1.80-1.84x the single-matrix warp's CPU time on a
+// Zen 5 (where the single-matrix warp is 0.93 ms); the mesh warp alone about 1.6x.
 bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                            int row_end, int channels, const WarpMesh &mesh, bool replicate,
                            const std::uint8_t border[4]);
@@ -122,6 +122,24 @@ bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stri
 bool warpPlaneBilinearMesh(const PlaneSpan &src, std::uint8_t *dst, int dst_stride, int dst_width, int row_begin,
                            int row_end, int channels, const WarpMesh &mesh, bool replicate,
                            const std::uint8_t border[4], WarpKernel kernel);
+
+// One plane of warpPlanePairBilinearMesh: its source, destination rows and their border.
+struct MeshWarpPlane {
+    PlaneSpan src;
+    std::uint8_t *dst;
+    int dst_stride;
+    const std::uint8_t *border;
+};
+
+// Two 1-byte planes of one size through one mesh (I420's chroma planes): in each the bytes
+// warpPlaneBilinearMesh writes. The AVX2 kernel plans each row's chunks and their taps
+// once for both (the plan is half of a chunk's cost); the others warp one plane after the
+// other. False, having written nothing, as warpPlaneBilinearMesh, and when the sources'
+// sizes differ.
+bool warpPlanePairBilinearMesh(const MeshWarpPlane &a, const MeshWarpPlane &b, int dst_width, int row_begin,
+                               int row_end, const WarpMesh &mesh, bool replicate);
+bool warpPlanePairBilinearMesh(const MeshWarpPlane &a, const MeshWarpPlane &b, int dst_width, int row_begin,
+                               int row_end, const WarpMesh &mesh, bool replicate, WarpKernel kernel);
 
 // 4 interleaved bytes per pixel at WarpMesh::at rounded to 1/32 px and weighted as OpenCV's
 // fixed-point bilinear (warpPlaneBilinear4's arithmetic). The positions: in a cell whose

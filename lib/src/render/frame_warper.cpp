@@ -76,6 +76,16 @@ void warpGeneral(const FrameView &in, const FrameView &out, int p, int y0, int y
     cv::warpAffine(src, dst, matrix, dst.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, border, black);
 }
 
+// Whether planes p and p + 1 are 1-byte planes of one layout warped through equal meshes.
+bool pairsWithNext(const FrameView &in, const std::vector<WarpMesh> &meshes, int p)
+{
+    const PlaneLayout a = planeLayout(in.format, p), b = planeLayout(in.format, p + 1);
+    const WarpMesh &m = meshes[std::size_t(p)], &n = meshes[std::size_t(p + 1)];
+    return a.channels == 1 && a.bytes_per_sample == 1 && b.channels == 1 && b.bytes_per_sample == 1 &&
+           a.subsample_x == b.subsample_x && a.subsample_y == b.subsample_y && m.cell == n.cell &&
+           m.columns == n.columns && m.rows == n.rows && m.x == n.x && m.y == n.y;
+}
+
 void checkFrames(const FrameView &in, const FrameView &out)
 {
     if (!in.valid() || !out.valid() || !in.sameGeometry(out))
@@ -189,6 +199,17 @@ void FrameWarper::warpMeshRows(const FrameView &in, const FrameView &out, const 
         const PlaneSpan span{in.planes[p].data, in.planes[p].stride, in.planeWidth(p), in.planeHeight(p)};
         std::uint8_t *dst = out.planes[p].data;
         const int dst_stride = out.planes[p].stride, dst_width = out.planeWidth(p);
+        if (p + 1 < in.planeCount() && pairsWithNext(in, plane_meshes, p)) {
+            // The planar formats' two chroma planes: one plan for both.
+            const std::array<std::uint8_t, 4> next_border = borderBytes(blackFor(in.format, p + 1));
+            const MeshWarpPlane a{span, dst, dst_stride, border_value.data()};
+            const MeshWarpPlane b{{in.planes[p + 1].data, in.planes[p + 1].stride, in.planeWidth(p + 1),
+                                   in.planeHeight(p + 1)},
+                                  out.planes[p + 1].data, out.planes[p + 1].stride, next_border.data()};
+            warpPlanePairBilinearMesh(a, b, dst_width, y0, y1, mesh, replicate);
+            ++p;
+            continue;
+        }
         // Each takes any mesh that covers its plane (checked above).
         if (layout.bytes_per_sample == 2)
             warpPlaneBilinear16Mesh(span, dst, dst_stride, dst_width, y0, y1, mesh, replicate, 0,

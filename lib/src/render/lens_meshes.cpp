@@ -28,29 +28,6 @@ int chainCellFor(int width, LensOutput output)
     return kWarpCell * std::max(1, int(std::lround(std::sqrt(width / 640.0))));
 }
 
-// The warp's 16-px mesh interpolated from a coarser one (as WarpMesh::at would, a row of
-// nodes at a time).
-WarpMesh refined(const WarpMesh &coarse, int width, int height)
-{
-    WarpMesh fine;
-    fine.cell = kWarpCell;
-    fine.columns = std::max(2, (width - 1 + kWarpCell - 1) / kWarpCell + 1);
-    fine.rows = std::max(2, (height - 1 + kWarpCell - 1) / kWarpCell + 1);
-    fine.x.resize(std::size_t(fine.columns) * std::size_t(fine.rows));
-    fine.y.resize(fine.x.size());
-    std::vector<double> row_x(std::size_t(coarse.columns)), row_y(std::size_t(coarse.columns));
-    for (int j = 0; j < fine.rows; ++j) {
-        coarse.rowAt(double(j) * kWarpCell, row_x.data(), row_y.data());
-        for (int i = 0; i < fine.columns; ++i) {
-            const Point2 p = coarse.alongRow(row_x.data(), row_y.data(), double(i) * kWarpCell);
-            const std::size_t k = std::size_t(j) * std::size_t(fine.columns) + std::size_t(i);
-            fine.x[k] = p.x;
-            fine.y[k] = p.y;
-        }
-    }
-    return fine;
-}
-
 } // namespace
 
 LensMeshes::LensMeshes(std::shared_ptr<const LensView> lens) : lens_(std::move(lens)) {}
@@ -102,7 +79,8 @@ std::vector<WarpMesh> LensMeshes::meshes(const FrameView &frame, double zoom, co
             mesh.x[k] = (s.x - ox) / fx;
             mesh.y[k] = (s.y - oy) / fy;
         }
-        out.push_back(mesh.cell == kWarpCell ? std::move(mesh) : refined(mesh, frame.planeWidth(p), frame.planeHeight(p)));
+        out.push_back(mesh.cell == kWarpCell ? std::move(mesh)
+                                             : refineWarpMesh(mesh, frame.planeWidth(p), frame.planeHeight(p), kWarpCell));
     }
     return out;
 }

@@ -70,6 +70,39 @@ bool WarpMesh::covers(int width, int height) const
            y.size() == x.size() && double(columns - 1) * cell >= width - 1 && double(rows - 1) * cell >= height - 1;
 }
 
+WarpMesh refineWarpMesh(const WarpMesh &coarse, int width, int height, int cell)
+{
+    if (cell <= 0 || cell % 16 != 0)
+        throw std::invalid_argument("refineWarpMesh: the cell must be a positive multiple of 16 pixels");
+    if (width < 1 || height < 1)
+        throw std::invalid_argument("refineWarpMesh: empty plane");
+    WarpMesh fine;
+    fine.cell = cell;
+    fine.columns = nodesCovering(width, cell);
+    fine.rows = nodesCovering(height, cell);
+    fine.x.resize(std::size_t(fine.columns) * std::size_t(fine.rows));
+    fine.y.resize(fine.x.size());
+    // Each fine column's coarse cell and fraction (cellOf's, found once rather than per node).
+    std::vector<int> index(std::size_t(fine.columns));
+    std::vector<double> fraction(index.size());
+    for (int i = 0; i < fine.columns; ++i)
+        cellOf(double(i) * cell, coarse.cell, coarse.columns, index[std::size_t(i)], fraction[std::size_t(i)]);
+    std::vector<double> row_x(std::size_t(coarse.columns)), row_y(row_x.size());
+    for (int j = 0; j < fine.rows; ++j) {
+        coarse.rowAt(double(j) * cell, row_x.data(), row_y.data());
+        double *x = fine.x.data() + std::size_t(j) * std::size_t(fine.columns);
+        double *y = fine.y.data() + std::size_t(j) * std::size_t(fine.columns);
+        for (std::size_t i = 0; i < index.size(); ++i) {
+            const std::size_t k = std::size_t(index[i]);
+            const double s = fraction[i];
+            // alongRow's expressions.
+            x[i] = row_x[k] + (row_x[k + 1] - row_x[k]) * s;
+            y[i] = row_y[k] + (row_y[k + 1] - row_y[k]) * s;
+        }
+    }
+    return fine;
+}
+
 WarpMesh makeWarpMesh(int width, int height, int cell, const std::function<Point2(Point2)> &output_to_input)
 {
     if (cell <= 0 || cell % 16 != 0)

@@ -41,4 +41,9 @@ struct WarpMesh {
 // of 16 (the kernels' chunk) and the plane at least 1 x 1: else std::invalid_argument.
 WarpMesh makeWarpMesh(int width, int height, int cell, const std::function<Point2(Point2)> &output_to_input);
 
+// The mesh of `cell`-px cells covering a width x height plane interpolated from a coarser
+// one: every node at coarse.at()'s doubles. The cell and the plane as makeWarpMesh's (else
+// std::invalid_argument).
+WarpMesh refineWarpMesh(const WarpMesh &coarse, int width, int height, int cell);
+
 } // namespace uavstab

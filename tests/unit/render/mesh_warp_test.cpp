@@ -162,6 +162,23 @@ TEST(WarpMesh, AtReproducesTheNodesAndIsLinearAlongARowInsideACell)
     EXPECT_LT(std::hypot(mid.x - exact.x, mid.y - exact.y), 0.05);
 }
 
+TEST(WarpMesh, RefinedMeshHasTheCoarseMeshsPositionsAtItsNodes)
+{
+    const LensMap lens(1921, 1081, -0.2, 0.03, 1.05, 12.0, -7.0);
+    const WarpMesh coarse = makeWarpMesh(1921, 1081, 32, lens);
+    const WarpMesh fine = refineWarpMesh(coarse, 1921, 1081, 16);
+    EXPECT_EQ(makeWarpMesh(1921, 1081, 16, lens).columns, fine.columns);
+    EXPECT_EQ(makeWarpMesh(1921, 1081, 16, lens).rows, fine.rows);
+    EXPECT_TRUE(fine.covers(1921, 1081));
+    for (int j = 0; j < fine.rows; ++j)
+        for (int i = 0; i < fine.columns; ++i) {
+            const Point2 want = coarse.at(16.0 * i, 16.0 * j);
+            ASSERT_EQ(want.x, fine.x[std::size_t(j) * fine.columns + i]) << i << "," << j;  // exactly
+            ASSERT_EQ(want.y, fine.y[std::size_t(j) * fine.columns + i]) << i << "," << j;
+        }
+    EXPECT_THROW(refineWarpMesh(coarse, 1921, 1081, 24), std::invalid_argument);
+}
+
 TEST(MeshWarpKernels, EveryKernelWritesTheSameBytesAsTheScalarReference)
 {
     // Random barrel / pincushion meshes with rotation, zoom and shifts that take parts of the
@@ -238,6 +255,53 @@ TEST(MeshWarpKernels, WideRowsWriteTheSameBytesAsTheScalarReference)
             EXPECT_TRUE(out == reference) << warpKernelName(kernel) << " channels " << channels;
         }
     }
+}
+
+TEST(MeshWarpKernels, APairOfPlanesWritesEachPlanesOwnBytes)
+{
+    // Two 1-byte planes through one mesh in one call (I420's chroma): each gets exactly the
+    // bytes the scalar single-plane warp writes, in every kernel; strides and borders of
+    // their own, rows wider than one plan (64 chunks), meshes partly off the frame.
+    std::mt19937 rng(2026);
+    const auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+    const auto integer = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
+    for (int trial = 0; trial < 200; ++trial) {
+        const int w = integer(18, trial % 10 == 0 ? 1300 : 230), h = integer(2, 60);
+        const TestPlane src_a = noisePlane(rng, w, h, 1, integer(0, 20)), src_b = noisePlane(rng, w, h, 1, integer(0, 20));
+        const int dst_width = integer(1, w + 40), dst_height = integer(1, 60);
+        const LensMap lens(dst_width, dst_height, uniform(-0.25, 0.25), uniform(-0.06, 0.06), uniform(0.7, 1.3),
+                           uniform(-0.3, 0.3) * w, uniform(-0.3, 0.3) * h);
+        WarpMesh mesh = makeWarpMesh(dst_width, dst_height, trial % 9 == 0 ? 32 : 16, lens);
+        if (trial % 10 == 3)
+            mesh.x[std::size_t(integer(0, int(mesh.x.size()) - 1))] = std::nan("");
+        const int stride_a = dst_width + integer(0, 9), stride_b = dst_width + integer(0, 9);
+        const int row_begin = integer(0, dst_height - 1), row_end = integer(row_begin, dst_height);
+        const bool replicate = rng() % 2;
+        const std::uint8_t border_a[4] = {std::uint8_t(rng()), 0, 0, 0}, border_b[4] = {std::uint8_t(rng()), 0, 0, 0};
+        std::vector<std::uint8_t> want_a(std::size_t(stride_a) * dst_height, 0xa5), want_b(std::size_t(stride_b) * dst_height, 0x5a);
+        ASSERT_TRUE(warpPlaneBilinearMesh(src_a.span(), want_a.data(), stride_a, dst_width, row_begin, row_end, 1, mesh,
+                                          replicate, border_a, WarpKernel::Scalar));
+        ASSERT_TRUE(warpPlaneBilinearMesh(src_b.span(), want_b.data(), stride_b, dst_width, row_begin, row_end, 1, mesh,
+                                          replicate, border_b, WarpKernel::Scalar));
+        for (WarpKernel kernel : kKernels) {
+            if (!warpKernelAvailable(kernel))
+                continue;
+            std::vector<std::uint8_t> a(want_a.size(), 0xa5), b(want_b.size(), 0x5a);
+            ASSERT_TRUE(warpPlanePairBilinearMesh({src_a.span(), a.data(), stride_a, border_a},
+                                                  {src_b.span(), b.data(), stride_b, border_b}, dst_width, row_begin,
+                                                  row_end, mesh, replicate, kernel));
+            ASSERT_TRUE(a == want_a) << warpKernelName(kernel) << " trial " << trial << " (first plane)";
+            ASSERT_TRUE(b == want_b) << warpKernelName(kernel) << " trial " << trial << " (second plane)";
+        }
+    }
+    // Sources of two sizes are refused.
+    std::mt19937 rng2(1);
+    const TestPlane a = noisePlane(rng2, 40, 20, 1, 0), b = noisePlane(rng2, 41, 20, 1, 0);
+    std::vector<std::uint8_t> out(40 * 20);
+    const std::uint8_t border[4] = {};
+    const WarpMesh mesh = makeWarpMesh(40, 20, 16, [](Point2 p) { return p; });
+    EXPECT_FALSE(warpPlanePairBilinearMesh({a.span(), out.data(), 40, border}, {b.span(), out.data(), 40, border}, 40, 0,
+                                           20, mesh, false));
 }
 
 TEST(MeshWarpKernels, FourBytePixelsWriteTheSameBytesInEveryKernel)
