@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace uavstab {
 
@@ -70,18 +71,29 @@ bool WarpMesh::covers(int width, int height) const
            y.size() == x.size() && double(columns - 1) * cell >= width - 1 && double(rows - 1) * cell >= height - 1;
 }
 
-WarpMesh refineWarpMesh(const WarpMesh &coarse, int width, int height, int cell)
+namespace {
+
+// A mesh of `cell`-px cells covering a width x height plane, its nodes not yet set.
+WarpMesh sizedMesh(const char *caller, int width, int height, int cell)
 {
     if (cell <= 0 || cell % 16 != 0)
-        throw std::invalid_argument("refineWarpMesh: the cell must be a positive multiple of 16 pixels");
+        throw std::invalid_argument(std::string(caller) + ": the cell must be a positive multiple of 16 pixels");
     if (width < 1 || height < 1)
-        throw std::invalid_argument("refineWarpMesh: empty plane");
-    WarpMesh fine;
-    fine.cell = cell;
-    fine.columns = nodesCovering(width, cell);
-    fine.rows = nodesCovering(height, cell);
-    fine.x.resize(std::size_t(fine.columns) * std::size_t(fine.rows));
-    fine.y.resize(fine.x.size());
+        throw std::invalid_argument(std::string(caller) + ": empty plane");
+    WarpMesh mesh;
+    mesh.cell = cell;
+    mesh.columns = nodesCovering(width, cell);
+    mesh.rows = nodesCovering(height, cell);
+    mesh.x.resize(std::size_t(mesh.columns) * std::size_t(mesh.rows));
+    mesh.y.resize(mesh.x.size());
+    return mesh;
+}
+
+} // namespace
+
+WarpMesh refineWarpMesh(const WarpMesh &coarse, int width, int height, int cell)
+{
+    WarpMesh fine = sizedMesh("refineWarpMesh", width, height, cell);
     // Each fine column's coarse cell and fraction (cellOf's, found once rather than per node).
     std::vector<int> index(std::size_t(fine.columns));
     std::vector<double> fraction(index.size());
@@ -105,16 +117,7 @@ WarpMesh refineWarpMesh(const WarpMesh &coarse, int width, int height, int cell)
 
 WarpMesh makeWarpMesh(int width, int height, int cell, const std::function<Point2(Point2)> &output_to_input)
 {
-    if (cell <= 0 || cell % 16 != 0)
-        throw std::invalid_argument("makeWarpMesh: the cell must be a positive multiple of 16 pixels");
-    if (width < 1 || height < 1)
-        throw std::invalid_argument("makeWarpMesh: empty plane");
-    WarpMesh mesh;
-    mesh.cell = cell;
-    mesh.columns = nodesCovering(width, cell);
-    mesh.rows = nodesCovering(height, cell);
-    mesh.x.resize(std::size_t(mesh.columns) * std::size_t(mesh.rows));
-    mesh.y.resize(mesh.x.size());
+    WarpMesh mesh = sizedMesh("makeWarpMesh", width, height, cell);
     for (int j = 0; j < mesh.rows; ++j)
         for (int i = 0; i < mesh.columns; ++i) {
             const Point2 s = output_to_input({double(i) * cell, double(j) * cell});
