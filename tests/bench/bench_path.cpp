@@ -16,6 +16,7 @@
 //   strong720  1280x720, ~16 px RMS of shake (11.4 px per axis) and 0.5 deg of roll
 //   man360     the manoeuvre flight (hover, pans, a yaw turn, stops, a climb), 640x360
 //   man720     the same at 1280x720
+//   vib720     hover720 with 47 Hz propeller vibration (2 px, 0.1 deg RMS, aliased at 30 fps)
 //   sway720    a handheld camera meant to be still: 20 / 12 px RMS of 0.3-1.2 Hz sway, 0.4 deg of
 //              roll sway, 4 px of 2-8 Hz shake, 1280x720
 // Columns: jitter = RMS high-pass (Gaussian sigma 8) of the output frame's corners against
@@ -93,7 +94,7 @@ Case makeCase(const std::string &name, std::uint32_t seed, double strength, int 
     synthetic::FlightOptions o;
     o.seed = seed;
     o.frames = frames;
-    if (name == "hover720" || name == "man720" || name == "strong720") {
+    if (name == "hover720" || name == "man720" || name == "strong720" || name == "vib720") {
         o.width = 1280;
         o.height = 720;
     }
@@ -113,6 +114,13 @@ Case makeCase(const std::string &name, std::uint32_t seed, double strength, int 
         o.band_px = 11.0;
         o.rotation_noise_deg = 0.1;
         o.rotation_band_deg = 0.5;
+    }
+    if (name == "vib720") {
+        // The default jitter and bench_rolling_shutter.cpp's reference propeller vibration
+        // (global shutter), as quality_strong.cpp's vibration flight; strength scales both.
+        o.vibration_hz = 47;
+        o.vibration_px = 2.0 * strength;
+        o.vibration_deg = 0.1 * strength;
     }
     o.noise_px *= strength;
     o.band_px *= strength;
@@ -281,7 +289,7 @@ int main(int argc, char **argv)
     if (planners.empty())
         planners = {"l1", "optimal"};
     if (cases.empty())
-        cases = {"hover360", "hover720", "drone1080", "strong720", "sway720", "man360", "man720"};
+        cases = {"hover360", "hover720", "drone1080", "strong720", "vib720", "sway720", "man360", "man720"};
 
     std::ostringstream md;
     md << "The planners alone, fed the true camera path of ShakyFlight clips (perfect motion estimates, no "
@@ -290,7 +298,7 @@ int main(int argc, char **argv)
        << " frames (the drone case 177), every delay and shake strength. Cases: hover360/hover720 = the drifting "
           "hover at 640x360 / 1280x720; drone1080 = no intended motion, ShakyFlight's jitter at 3x its pixel "
           "amplitudes (the drone clip's shake); strong720 = ~16 px RMS of shake (11.4 px per axis) and 0.5 deg of "
-          "roll at 1280x720; man360/man720 = the manoeuvre flight; sway720 = a handheld camera meant to be still "
+          "roll at 1280x720; vib720 = hover720 with 47 Hz propeller vibration (2 px, 0.1 deg, aliased at 30 fps); man360/man720 = the manoeuvre flight; sway720 = a handheld camera meant to be still "
           "(20 / 12 px RMS of 0.3-1.2 Hz sway, 0.4 deg of roll sway, 4 px of shake), larger than the crop "
           "room. **Jitter** = `synthetic::intendedPathJitter` (high-pass of the output against the intended path, "
           "after the first second); **first second** the same over the first second alone; **lag** the "
