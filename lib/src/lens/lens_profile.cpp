@@ -183,19 +183,45 @@ LensProfile readOpenCvCalibration(const std::string &path)
     }
 }
 
-// OpenCV 4.6's YAML parser never returns on some malformed files (an indented `a:1` and then a
-// line `--G-`, found by tests/fuzz/fuzz_lens_profile.cpp): a line that begins with "--" but is
-// no document marker ("---") is refused before the file reaches it. Calibration files have
-// none.
+// OpenCV 4.6's YAML reader never returns on two shapes of malformed file (found by
+// tests/fuzz/fuzz_lens_profile.cpp): a line beginning with "--" that is no document marker
+// ("---"), and a line indented less than the file's first key (" s: 0\nabc-\nx: 1").
+// Neither is valid YAML, and calibration files have none: they are refused before the reader
+// sees them. Lines inside flow brackets ("[ 1.,\n 2. ]") are not judged by their indentation;
+// JSON and XML files begin unindented, so no line can be indented less.
 void refuseWhatHangsOpenCvsParser(const std::string &path)
 {
     std::ifstream in(path, std::ios::binary);
     std::string line;
+    std::size_t top = std::string::npos;  // the first key's indentation
+    int depth = 0;                         // flow brackets open
+    bool quoted = false;
+    auto refuse = [&](int number, const std::string &why) {
+        throw LensProfileError(path, "", "is not a readable OpenCV calibration (line " + std::to_string(number) + " " +
+                                             why + ")");
+    };
     for (int number = 1; std::getline(in, line); ++number) {
-        const std::size_t first = line.find_first_not_of(" \t");
-        if (first != std::string::npos && line.compare(first, 2, "--") == 0 && line.compare(first, 3, "---") != 0)
-            throw LensProfileError(path, "", "is not a readable OpenCV calibration (line " + std::to_string(number) +
-                                                 " begins with \"--\")");
+        const std::size_t first = line.find_first_not_of(" \t\r");
+        if (first == std::string::npos)
+            continue;
+        if (line.compare(first, 2, "--") == 0 && line.compare(first, 3, "---") != 0)
+            refuse(number, "begins with \"--\"");
+        const bool marker = line[first] == '#' || line[first] == '%' || line.compare(first, 3, "---") == 0 ||
+                            line.compare(first, 3, "...") == 0;
+        if (!marker && depth == 0 && !quoted) {
+            if (top == std::string::npos)
+                top = first;
+            else if (first < top)
+                refuse(number, "is indented less than the first key");
+        }
+        for (const char c : line) {
+            if (c == '"')
+                quoted = !quoted;
+            else if (!quoted && (c == '[' || c == '{'))
+                ++depth;
+            else if (!quoted && (c == ']' || c == '}') && depth > 0)
+                --depth;
+        }
     }
 }
 

@@ -330,6 +330,11 @@ TEST(LensProfile, BrokenCalibrationFilesAreRefusedAsProfiles)
         {"%YAML:1.0\n---\n- 1\n- 2\n", ""},
         // Rows and data that disagree.
         {matrix_head + "3\n   cols: 3\n   dt: d\n   data: [ 1., 2. ]\n", "camera_matrix"},
+        // Files OpenCV 4.6's YAML reader never returns on (the fuzzer's finds): a line
+        // indented less than the first key, and a line beginning with "--".
+        {"%YAML:1.0\n s: 0\nabc-\na: 1\n", ""},
+        {"%YAML:1.0\n  a: 1\n b: -1\nc: 1\n", ""},
+        {"%YAML:1.0\n a:1\n--G-\n", ""},
     };
     for (std::size_t i = 0; i < cases.size(); ++i) {
         const std::string path = writeFile("broken" + std::to_string(i) + ".yml", cases[i].first);
