@@ -187,15 +187,14 @@ LensProfile readOpenCvCalibration(const std::string &path)
 // tests/fuzz/fuzz_lens_profile.cpp): a line beginning with "--" that is no document marker
 // ("---"), and a line indented less than the file's first key (" s: 0\nabc-\nx: 1").
 // Neither is valid YAML, and calibration files have none: they are refused before the reader
-// sees them. Lines inside flow brackets ("[ 1.,\n 2. ]") are not judged by their indentation;
-// JSON and XML files begin unindented, so no line can be indented less.
+// sees them. OpenCV writes its keys unindented and JSON and XML files begin unindented, so for
+// them no line can be indented less. Brackets are not followed: an unclosed one would hide
+// the lines after it.
 void refuseWhatHangsOpenCvsParser(const std::string &path)
 {
     std::ifstream in(path, std::ios::binary);
     std::string line;
     std::size_t top = std::string::npos;  // the first key's indentation
-    int depth = 0;                         // flow brackets open
-    bool quoted = false;
     auto refuse = [&](int number, const std::string &why) {
         throw LensProfileError(path, "", "is not a readable OpenCV calibration (line " + std::to_string(number) + " " +
                                              why + ")");
@@ -208,20 +207,12 @@ void refuseWhatHangsOpenCvsParser(const std::string &path)
             refuse(number, "begins with \"--\"");
         const bool marker = line[first] == '#' || line[first] == '%' || line.compare(first, 3, "---") == 0 ||
                             line.compare(first, 3, "...") == 0;
-        if (!marker && depth == 0 && !quoted) {
-            if (top == std::string::npos)
-                top = first;
-            else if (first < top)
-                refuse(number, "is indented less than the first key");
-        }
-        for (const char c : line) {
-            if (c == '"')
-                quoted = !quoted;
-            else if (!quoted && (c == '[' || c == '{'))
-                ++depth;
-            else if (!quoted && (c == ']' || c == '}') && depth > 0)
-                --depth;
-        }
+        if (marker)
+            continue;
+        if (top == std::string::npos)
+            top = first;
+        else if (first < top)
+            refuse(number, "is indented less than the first key");
     }
 }
 

@@ -335,6 +335,7 @@ TEST(LensProfile, BrokenCalibrationFilesAreRefusedAsProfiles)
         {"%YAML:1.0\n s: 0\nabc-\na: 1\n", ""},
         {"%YAML:1.0\n  a: 1\n b: -1\nc: 1\n", ""},
         {"%YAML:1.0\n a:1\n--G-\n", ""},
+        {"%YAML:1.0\n s[:0\n-0G-\na\n", ""},  // an unclosed bracket hides nothing
     };
     for (std::size_t i = 0; i < cases.size(); ++i) {
         const std::string path = writeFile("broken" + std::to_string(i) + ".yml", cases[i].first);
